@@ -1,0 +1,1 @@
+"""Blender layer: moves data between Blender and prt_addon.core, and the UI around it."""

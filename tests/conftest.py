@@ -1,0 +1,48 @@
+"""Shared fixtures. Core tests need only numpy; Blender-layer tests use the `bpy` module."""
+
+import os
+
+import numpy as np
+import pytest
+
+
+@pytest.fixture(scope="session")
+def bpy_module():
+    import bpy
+
+    return bpy
+
+
+@pytest.fixture(scope="session")
+def addon(bpy_module):
+    """The add-on registered once for the session (unregistered at the end)."""
+    import prt_addon
+
+    prt_addon.register()
+    yield prt_addon
+    prt_addon.unregister()
+
+
+@pytest.fixture
+def empty_scene(bpy_module, addon):
+    """Factory settings with no objects, no camera and no world; the add-on stays registered."""
+    bpy_module.ops.wm.read_factory_settings(use_empty=True)
+    # read_factory_settings unregisters nothing of ours, but make sure the scene property exists.
+    assert hasattr(bpy_module.types.Scene, "prt")
+    return bpy_module.context.scene
+
+
+def bundled_hdri_path(name="forest"):
+    """Path of one of Blender's bundled studio-light HDRIs (1024x512 EXR, CC0)."""
+    import bpy
+
+    folder = bpy.utils.system_resource("DATAFILES", path="studiolights/world")
+    path = os.path.join(folder, f"{name}.exr")
+    assert os.path.isfile(path), path
+    return path
+
+
+def random_directions(count, seed):
+    rng = np.random.default_rng(seed)
+    d = rng.normal(size=(count, 3))
+    return d / np.linalg.norm(d, axis=1, keepdims=True)

@@ -1,0 +1,45 @@
+"""The add-on registers, unregisters and registers again in one process; the core needs no bpy."""
+
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+
+def test_core_and_api_import_without_bpy():
+    # bpy is blocked in a fresh interpreter: importing it would raise ImportError.
+    code = textwrap.dedent(
+        """
+        import sys
+        sys.modules["bpy"] = None
+        sys.modules["mathutils"] = None
+        sys.modules["gpu"] = None
+        import prt_addon.core.sh, prt_addon.api
+        import pkgutil, importlib, prt_addon.core as core
+        for info in pkgutil.iter_modules(core.__path__):
+            importlib.import_module("prt_addon.core." + info.name)
+        import numpy as np
+        print(prt_addon.api.sh_basis(np.array([[0.0, 0.0, 1.0]]), 2).shape)
+        """
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=".")
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "(1, 4)"
+
+
+@pytest.mark.blender
+def test_register_unregister_register(bpy_module):
+    import prt_addon
+
+    prt_addon.register()
+    assert hasattr(bpy_module.types.Scene, "prt")
+    assert hasattr(bpy_module.types, "VIEW3D_PT_prt")
+    prt_addon.register()  # a second register() without unregister() must not fail
+    prt_addon.unregister()
+    assert not hasattr(bpy_module.types.Scene, "prt")
+    assert not hasattr(bpy_module.types, "VIEW3D_PT_prt")
+    prt_addon.unregister()  # unregistering twice is harmless
+    prt_addon.register()
+    assert hasattr(bpy_module.types.Scene, "prt")
+    # Left registered: the session-wide `addon` fixture unregisters at the end.
