@@ -151,21 +151,41 @@ def rotate(coeffs, rotation):
     return out
 
 
+@functools.lru_cache(maxsize=None)
+def _degree_pairs(order):
+    """Index arrays of the degree m of each coefficient and of its partner (l, -m)."""
+    bands = np.arange(order * order)
+    l = np.floor(np.sqrt(bands)).astype(int)
+    m = bands - l * (l + 1)
+    return m, l * (l + 1) - m
+
+
 def z_rotation_matrix(angle, order):
-    """Closed form of rotation_matrix(Rz(angle), order): per band, (y_{l,-m}, y_{l,m}) turn by m*angle."""
+    """Closed form of rotation_matrix(Rz(angle), order): per band, (y_{l,-m}, y_{l,m}) turn by m*angle.
+
+    Rotating f by alpha about Z shifts its phi dependence: cos(m (phi - alpha)) and
+    sin(m (phi - alpha)) expand into the pair with cos(m alpha) and sin(m alpha).
+    """
     order = check_order(order)
+    m, partner = _degree_pairs(order)
     out = np.zeros((order * order, order * order))
-    for l in range(order):
-        centre = l * (l + 1)
-        out[centre, centre] = 1.0
-        for m in range(1, l + 1):
-            c, s = np.cos(m * angle), np.sin(m * angle)
-            plus, minus = centre + m, centre - m
-            out[plus, plus] = c
-            out[plus, minus] = -s
-            out[minus, plus] = s
-            out[minus, minus] = c
+    index = np.arange(order * order)
+    out[index, index] = np.cos(m * angle)
+    out[index, partner] += np.where(m > 0, -1.0, 1.0) * np.sin(np.abs(m) * angle) * (m != 0)
     return out
+
+
+def rotate_z(coeffs, angle):
+    """rotate(coeffs, Rz(angle)) without forming a matrix: O(n*n) instead of O(n^3)."""
+    from .sh import order_of
+
+    coeffs = np.asarray(coeffs, dtype=np.float64)
+    m, partner = _degree_pairs(order_of(coeffs.shape[0]))
+    c = np.cos(m * angle)
+    s = np.where(m > 0, -1.0, 1.0) * np.sin(np.abs(m) * angle)
+    if coeffs.ndim > 1:
+        c, s = c[:, None], s[:, None]
+    return c * coeffs + s * coeffs[partner]
 
 
 def axis_angle_matrix(axis, angle):

@@ -125,11 +125,34 @@ def sh_basis(directions, order):
     return out.T
 
 
+# Directions evaluated at a time by evaluate(): bounds its temporary basis to CHUNK * n*n floats.
+EVALUATE_CHUNK = 32768
+
+
 def evaluate(coeffs, directions):
     """Evaluate an expansion at directions. coeffs (n*n,) or (n*n, C) -> (N,) or (N, C)."""
     coeffs = np.asarray(coeffs, dtype=np.float64)
     order = order_of(coeffs.shape[0])
-    return sh_basis(directions, order) @ coeffs
+    directions = np.asarray(directions, dtype=np.float64)
+    out = np.empty((len(directions),) + coeffs.shape[1:])
+    for start in range(0, len(directions), EVALUATE_CHUNK):
+        chunk = slice(start, start + EVALUATE_CHUNK)
+        out[chunk] = sh_basis(directions[chunk], order) @ coeffs
+    return out
+
+
+def convolve_zonal(coeffs, zonal):
+    """Coefficients of the convolution of f with a zonal kernel h (Funk-Hecke theorem).
+
+    (f * h)(n) = integral f(w) h(n . w) dw has coefficients sqrt(4 pi / (2l+1)) z_l c_lm, where
+    z_l are h's zonal coefficients. With h = max(0, cos)/pi this turns radiance into the
+    unshadowed diffuse radiance E/pi (Ramamoorthi & Hanrahan 2001).
+    """
+    coeffs = np.asarray(coeffs, dtype=np.float64)
+    order = order_of(coeffs.shape[0])
+    bands = band_of_index(order)
+    scale = np.sqrt(FOUR_PI / (2.0 * bands + 1.0)) * np.asarray(zonal, dtype=np.float64)[bands]
+    return coeffs * (scale if coeffs.ndim == 1 else scale[:, None])
 
 
 def order_of(num):
