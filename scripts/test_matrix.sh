@@ -1,6 +1,5 @@
 #!/usr/bin/env bash
-# Runs the tests on several Blender versions, each in its own venv (.venv-bpy-X.Y.Z, ignored by
-# git) that differs from requirements-dev.txt only in the bpy pin.
+# Runs the tests on several Blender versions, each in its own venv (see bpy_venv.sh).
 #   bash scripts/test_matrix.sh                 # whole suite on every version
 #   bash scripts/test_matrix.sh -m blender      # extra arguments go to pytest
 # BPY_VERSIONS overrides the list (space separated).
@@ -10,18 +9,8 @@ versions=${BPY_VERSIONS:-"4.2.23 4.5.15 5.0.1"}
 bash "$root/scripts/setup_venv.sh"   # system libraries and the default venv
 status=0
 for version in $versions; do
-  venv="$root/.venv-bpy-$version"
-  requirements="$venv.requirements.txt"
-  sed "s/^bpy==.*/bpy==$version/" "$root/requirements-dev.txt" > "$requirements.new"
-  if [ ! -x "$venv/bin/python" ] || ! cmp -s "$requirements.new" "$requirements"; then
-    rm -rf "$venv"
-    python3.11 -m venv "$venv"
-    "$venv/bin/python" -m pip install -q -r "$requirements.new"
-    mv "$requirements.new" "$requirements"
-  else
-    rm -f "$requirements.new"
-  fi
+  python=$(bash "$root/scripts/bpy_venv.sh" "$version")
   echo "=== bpy $version"
-  (cd "$root" && "$venv/bin/python" -m pytest "$@") || status=1
+  (cd "$root" && "$python" -m pytest "$@") || status=1
 done
 exit $status
