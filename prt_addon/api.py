@@ -34,3 +34,28 @@ def rotation_matrix(rotation, order):
     mathutils.Matrix.to_3x3()).
     """
     return _rotation.rotation_matrix(np.asarray(rotation, dtype=np.float64), order)
+
+
+def project_world(scene=None, order=None):
+    """Project scene.world (default: the context scene) into SH, store it on the scene and
+    return the world-space coefficients (order**2, 3). order=None uses scene.prt_world.order.
+
+    Raises ValueError (prt_addon.blender.world.WorldError) with a clear message when the world
+    cannot be projected; the stored lighting is then left unchanged.
+    """
+    import bpy
+
+    from .blender import world as _world
+
+    scene = bpy.context.scene if scene is None else scene
+    return _world.project_and_store(scene, order).coeffs.copy()
+
+
+def world_lighting(scene=None):
+    """World-space SH lighting (n*n, 3) stored on the scene for its current Mapping rotation,
+    or None if nothing was projected."""
+    import bpy
+
+    from .blender import world as _world
+
+    return _world.current_world_coeffs(bpy.context.scene if scene is None else scene)

@@ -8,12 +8,13 @@ and a second register() without unregister() first unregisters what is there.
 
 import bpy
 
-from . import properties, panels
+from . import properties, panels, world_ops
 
 # Order matters: property groups before the panels and operators that use them.
 MODULES = [
     properties,
     panels,
+    world_ops,
 ]
 
 _registered = []

@@ -1,0 +1,438 @@
+"""World lighting projection (issue 3): node trees, images, Mapping rotation, storage.
+
+Expectations are independent of the code under test where possible: exact constants, analytic
+integrals over half spheres, pixel-exact column shifts for 90-degree turns, and images synthesised
+from known coefficients. The Mapping convention (world seen along D = image(R D) for POINT, VECTOR
+and NORMAL, image(R^-1 D) for TEXTURE) was measured with Cycles; tests/test_world_cycles.py checks
+it against Cycles again.
+"""
+
+import math
+import os
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from prt_addon.core import projection, resample, rotation, sh
+
+pytestmark = pytest.mark.blender
+
+SQRT_4PI = math.sqrt(4.0 * math.pi)
+
+
+def new_world(bpy, scene, color=(1.0, 1.0, 1.0), strength=1.0):
+    world = bpy.data.worlds.new("World")
+    scene.world = world
+    background = world.node_tree.nodes["Background"]
+    background.inputs["Color"].default_value = (*color, 1.0)
+    background.inputs["Strength"].default_value = strength
+    return world
+
+
+def float_image(bpy, name, rgb):
+    rgb = np.asarray(rgb, dtype=np.float64)
+    height, width = rgb.shape[:2]
+    image = bpy.data.images.new(name, width, height, float_buffer=True)
+    rgba = np.concatenate([rgb, np.ones((height, width, 1))], axis=2).astype(np.float32)
+    image.pixels.foreach_set(rgba.ravel())
+    return image
+
+
+def use_image(world, image, strength=1.0):
+    tree = world.node_tree
+    env = tree.nodes.new("ShaderNodeTexEnvironment")
+    env.image = image
+    background = tree.nodes["Background"]
+    tree.links.new(env.outputs["Color"], background.inputs["Color"])
+    background.inputs["Strength"].default_value = strength
+    return env
+
+
+def add_mapping(world, env, euler=(0.0, 0.0, 0.0), vector_type="POINT"):
+    tree = world.node_tree
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    mapping = tree.nodes.new("ShaderNodeMapping")
+    mapping.vector_type = vector_type
+    tree.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+    tree.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
+    mapping.inputs["Rotation"].default_value = euler
+    return mapping
+
+
+def known_coeffs(order=6, seed=3):
+    rng = np.random.default_rng(seed)
+    c = 0.3 * rng.normal(size=(order * order, 3))
+    c[0] = 8.0  # keeps the function positive, so the pixel repair never changes it
+    return c
+
+
+def image_of(c, height, width, rotation_3x3=None):
+    """Pixels of f(R d) at the pixel centres d (R = identity by default)."""
+    d = projection.pixel_directions(height, width).reshape(-1, 3)
+    if rotation_3x3 is not None:
+        d = d @ np.asarray(rotation_3x3).T
+    return sh.evaluate(c, d).reshape(height, width, 3)
+
+
+def project_image(bpy, scene, rgb, order, **mapping):
+    world = scene.world or new_world(bpy, scene)
+    env = use_image(world, float_image(bpy, "img", rgb))
+    if mapping:
+        add_mapping(world, env, **mapping)
+    from prt_addon import api
+
+    return api.project_world(scene, order)
+
+
+# --- constants --------------------------------------------------------------------------------
+
+
+def test_constant_colour_world_is_exact(bpy_module, empty_scene):
+    from prt_addon import api
+
+    new_world(bpy_module, empty_scene, color=(0.2, 0.5, 1.5), strength=2.5)
+    c = api.project_world(empty_scene, 5)
+    assert c.shape == (25, 3)
+    np.testing.assert_allclose(c[0], SQRT_4PI * 2.5 * np.array([0.2, 0.5, 1.5]), rtol=1e-6)
+    assert np.all(c[1:] == 0.0)
+    settings = empty_scene.prt_world
+    assert settings.stored_order == 5 and settings.source_kind == "COLOR"
+    assert settings.truncation == 0.0 and settings.seconds > 0.0
+
+
+@pytest.mark.parametrize("size", [(1, 1), (7, 3), (300, 150)])
+def test_constant_image_is_exact_at_any_size(bpy_module, empty_scene, size):
+    width, height = size
+    rgb = np.broadcast_to(np.array([0.25, 1.0, 3.0]), (height, width, 3))
+    c = project_image(bpy_module, empty_scene, rgb, 4)
+    np.testing.assert_allclose(c[0], SQRT_4PI * np.array([0.25, 1.0, 3.0]), rtol=1e-6)
+    np.testing.assert_allclose(c[1:], 0.0, atol=1e-6)
+
+
+def test_two_pixel_image_halves_are_the_y_hemispheres(bpy_module, empty_scene):
+    """Column 0 of a 2x1 image is azimuth 0..pi, i.e. y > 0 (u = -atan2(y, x)/2pi + 1/2).
+
+    c_0 = sqrt(4 pi) (a + b) / 2 and c_{1,-1} = sqrt(3 / 4 pi) * integral_{y>0} y dOmega * (a - b)
+    = sqrt(3 / 4 pi) pi (a - b); c_{1,0} = c_{1,1} = 0.
+    """
+    a, b = 3.0, 1.0
+    rgb = np.array([[[a] * 3, [b] * 3]])
+    c = project_image(bpy_module, empty_scene, rgb, 2)
+    np.testing.assert_allclose(c[0], SQRT_4PI * (a + b) / 2, rtol=1e-6)
+    np.testing.assert_allclose(c[1], math.sqrt(3 / (4 * math.pi)) * math.pi * (a - b), rtol=1e-6)
+    np.testing.assert_allclose(c[2:], 0.0, atol=1e-6)
+
+
+# --- images of known coefficients ----------------------------------------------------------------
+
+
+@pytest.mark.parametrize("size", [(512, 256), (300, 150)])
+def test_image_of_known_coefficients_gives_them_back(bpy_module, empty_scene, size):
+    """A band-limited image sampled at pixel centres projects back to its coefficients up to the
+    sampling error, (pi / H)^2 l^2 / 24 relative in band l: under 4e-4 at H = 150, l = 5."""
+    width, height = size
+    c = known_coeffs(6)
+    out = project_image(bpy_module, empty_scene, image_of(c, height, width), 6)
+    np.testing.assert_allclose(out, c, atol=4e-4 * np.abs(c).max())
+    # And bit-for-bit what the core makes of the same float32 pixels.
+    core, _ = projection.project_equirect(image_of(c, height, width).astype(np.float32), 6)
+    np.testing.assert_allclose(out, core, rtol=1e-9, atol=1e-12)
+
+
+def test_strength_scales_the_coefficients(bpy_module, empty_scene):
+    from prt_addon import api
+
+    c = known_coeffs(4)
+    world = new_world(bpy_module, empty_scene)
+    use_image(world, float_image(bpy_module, "img", image_of(c, 64, 128)), strength=3.0)
+    out3 = api.project_world(empty_scene, 4)
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
+    np.testing.assert_allclose(out3, 3.0 * api.project_world(empty_scene, 4), rtol=1e-12)
+
+
+# --- Mapping rotation -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("vector_type", ["POINT", "VECTOR", "TEXTURE"])
+def test_mapping_zero_and_quarter_turn_about_z_match_shifted_image(bpy_module, empty_scene, vector_type):
+    """90 degrees about Z shifts the image by W/4 columns exactly: for POINT/VECTOR the world at
+    azimuth phi is the image at phi + 90 deg, i.e. column k - W/4 (TEXTURE: the other way)."""
+    c = known_coeffs(6)
+    height, width = 64, 128
+    rgb = image_of(c, height, width)
+    plain = project_image(bpy_module, empty_scene, rgb, 6)
+    zero = project_image(bpy_module, empty_scene, rgb, 6, euler=(0, 0, 0), vector_type=vector_type)
+    np.testing.assert_allclose(zero, plain, rtol=0, atol=1e-12)
+    shift = width // 4 if vector_type != "TEXTURE" else -width // 4
+    expected = project_image(bpy_module, empty_scene, np.roll(rgb, shift, axis=1), 6)
+    turned = project_image(
+        bpy_module, empty_scene, rgb, 6, euler=(0, 0, math.radians(90)), vector_type=vector_type
+    )
+    np.testing.assert_allclose(turned, expected, atol=1e-7 * np.abs(c).max())  # float32 pixels
+    # The opposite turn is far from it (so the comparison can fail).
+    wrong = project_image(bpy_module, empty_scene, np.roll(rgb, -shift, axis=1), 6)
+    assert np.abs(turned - wrong).max() > 0.1
+
+
+@pytest.mark.parametrize(
+    "euler, vector_type",
+    [
+        ((0.0, 0.0, 37.0), "POINT"),
+        ((0.0, 0.0, 37.0), "TEXTURE"),
+        ((90.0, 0.0, 0.0), "POINT"),
+        ((-30.0, 0.0, 0.0), "VECTOR"),
+        ((20.0, -35.0, 110.0), "POINT"),
+    ],
+)
+def test_mapping_rotation_matches_projecting_a_rotated_image(bpy_module, empty_scene, euler, vector_type):
+    """Mapping rotation R, applied as an SH rotation, against projecting the image of f(R d)
+    (f(R^-1 d) for TEXTURE) with no Mapping. Both are samplings of the same band-limited
+    function, so they agree to the sampling error (< 4e-4 relative at H = 128, order 6)."""
+    c = known_coeffs(6)
+    height, width = 128, 256
+    r = rotation.euler_xyz_matrix(np.radians(euler))
+    lookup = r if vector_type != "TEXTURE" else r.T
+    expected = project_image(bpy_module, empty_scene, image_of(c, height, width, lookup), 6)
+    out = project_image(
+        bpy_module, empty_scene, image_of(c, height, width), 6,
+        euler=tuple(np.radians(euler)), vector_type=vector_type,
+    )
+    scale = np.abs(c).max()
+    np.testing.assert_allclose(out, expected, atol=4e-4 * scale)
+    settings = empty_scene.prt_world
+    assert settings.mapping_node and settings.mapping_type == vector_type
+    # The stored coefficients are the unrotated ones.
+    from prt_addon.blender import world
+
+    np.testing.assert_allclose(world.stored_image_coeffs(empty_scene), c, atol=4e-4 * scale)
+    # The inverse rotation is rejected by the same tolerance.
+    wrong = project_image(bpy_module, empty_scene, image_of(c, height, width, lookup.T), 6)
+    assert np.abs(out - wrong).max() > 20 * 4e-4 * scale
+
+
+def test_current_world_coeffs_follow_the_mapping_without_reprojecting(bpy_module, empty_scene):
+    from prt_addon import api
+    from prt_addon.blender import world as world_mod
+
+    assert world_mod.current_world_coeffs(empty_scene) is None
+    c = known_coeffs(5)
+    world = new_world(bpy_module, empty_scene)
+    env = use_image(world, float_image(bpy_module, "img", image_of(c, 64, 128)))
+    mapping = add_mapping(world, env, euler=(0.0, 0.0, 0.4))
+    first = api.project_world(empty_scene, 5)
+    np.testing.assert_allclose(api.world_lighting(empty_scene), first, atol=1e-12)
+    token = empty_scene.prt_world.token
+    stored = np.array(empty_scene[world_mod.SH_KEY])
+
+    mapping.inputs["Rotation"].default_value = (0.3, -0.2, 1.7)
+    live = world_mod.current_world_coeffs(empty_scene)
+    assert empty_scene.prt_world.token == token  # nothing was projected again
+    np.testing.assert_array_equal(np.array(empty_scene[world_mod.SH_KEY]), stored)
+    # Same as a full projection with the new rotation.
+    np.testing.assert_allclose(live, api.project_world(empty_scene, 5), atol=1e-10)
+    assert np.abs(live - first).max() > 0.1
+
+
+def test_mapping_location_or_non_uniform_scale_is_not_ignored(bpy_module, empty_scene):
+    from prt_addon.blender import world as world_mod
+
+    world = new_world(bpy_module, empty_scene)
+    env = use_image(world, float_image(bpy_module, "img", np.ones((8, 16, 3))))
+    mapping = add_mapping(world, env, euler=(0, 0, 1.0))
+    mapping.inputs["Scale"].default_value = (2.0, 2.0, 2.0)  # uniform: no effect (normalised)
+    assert world_mod.analyse_world(empty_scene).kind == "IMAGE"
+    mapping.inputs["Location"].default_value = (0.0, 0.5, 0.0)
+    source = world_mod.analyse_world(empty_scene)
+    assert source.kind == "RENDER" and "location" in source.reason
+    mapping.vector_type = "VECTOR"  # a vector mapping ignores location
+    assert world_mod.analyse_world(empty_scene).kind == "IMAGE"
+    mapping.inputs["Scale"].default_value = (1.0, 1.0, -1.0)
+    source = world_mod.analyse_world(empty_scene)
+    assert source.kind == "RENDER" and "scale" in source.reason
+
+
+# --- image formats and bad input -----------------------------------------------------------------
+
+
+def srgb_to_linear(v):
+    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
+
+
+def test_8bit_srgb_image_is_linearised(bpy_module, empty_scene):
+    from prt_addon import api
+
+    world = new_world(bpy_module, empty_scene)
+    image = bpy_module.data.images.new("byte", 16, 8)  # 8-bit, colour space sRGB
+    assert not image.is_float and image.colorspace_settings.name == "sRGB"
+    encoded = np.array([64, 128, 230]) / 255.0
+    image.pixels.foreach_set(np.tile(np.append(encoded, 1.0), 16 * 8).astype(np.float32))
+    use_image(world, image)
+    c = api.project_world(empty_scene, 3)
+    np.testing.assert_allclose(c[0], SQRT_4PI * srgb_to_linear(encoded), rtol=2e-4)
+    data = bpy_module.data.images.new("data", 16, 8)
+    data.colorspace_settings.name = "Non-Color"  # data: used as stored
+    data.pixels.foreach_set(np.tile(np.append(encoded, 1.0), 16 * 8).astype(np.float32))
+    use_image(world, data)
+    c = api.project_world(empty_scene, 3)
+    np.testing.assert_allclose(c[0], SQRT_4PI * encoded, rtol=1e-6)
+
+
+def test_packed_and_saved_exr_images(bpy_module, empty_scene, tmp_path):
+    from prt_addon import api
+
+    c = known_coeffs(4)
+    rgb = image_of(c, 32, 64)
+    image = float_image(bpy_module, "src", rgb)
+    path = str(tmp_path / "env.exr")
+    image.filepath_raw = path
+    image.file_format = "OPEN_EXR"
+    image.save()
+    bpy_module.data.images.remove(image)
+
+    world = new_world(bpy_module, empty_scene)
+    loaded = bpy_module.data.images.load(path)
+    use_image(world, loaded)
+    from_file = api.project_world(empty_scene, 4)
+    np.testing.assert_allclose(from_file, c, atol=3e-3 * np.abs(c).max())  # half-float EXR
+    loaded.pack()
+    os.remove(path)
+    loaded.reload()
+    np.testing.assert_allclose(api.project_world(empty_scene, 4), from_file, atol=1e-12)
+
+
+def test_bad_pixels_are_repaired_and_reported(bpy_module, empty_scene):
+    from prt_addon.blender import world as world_mod
+
+    rgb = np.full((16, 32, 3), 2.0)
+    rgb[3, 5] = (np.nan, 1.0, 1.0)
+    rgb[8, 9] = (np.inf, -np.inf, 1.0)
+    rgb[10, 30] = (-5.0, 2.0, 2.0)
+    world = new_world(bpy_module, empty_scene)
+    use_image(world, float_image(bpy_module, "bad", rgb))
+    result = world_mod.project(empty_scene, 3)
+    repaired = np.nan_to_num(rgb, nan=0.0, posinf=0.0, neginf=0.0).clip(0.0, None)
+    expected, _ = projection.project_equirect(repaired, 3)
+    np.testing.assert_allclose(result.coeffs, expected, rtol=1e-6, atol=1e-9)
+    assert any("1 NaN and 2 infinite" in w and "1 negative" in w for w in result.warnings)
+    bpy_module.ops.prt.project_world(order=3)  # warnings do not make the operator fail
+
+
+def test_large_image_memory_is_bounded(bpy_module, empty_scene):
+    """8192x4096 RGBA float: the reduction reads ROW_BLOCK rows at a time, so the numpy peak is
+    the one float32 read buffer (512 MiB, which foreach_get needs) plus a few MiB."""
+    from prt_addon.blender import world as world_mod
+
+    world = new_world(bpy_module, empty_scene)
+    image = bpy_module.data.images.new("big", 8192, 4096, float_buffer=True)
+    image.generated_color = (0.5, 1.0, 2.0, 1.0)  # a display colour: Blender linearises it
+    twin = bpy_module.data.images.new("twin", 2, 1, float_buffer=True)
+    twin.generated_color = image.generated_color
+    linear = np.array(twin.pixels[:3])
+    assert np.abs(linear - [0.5, 1.0, 2.0]).max() > 0.1
+    use_image(world, image)
+    buffer_bytes = 8192 * 4096 * 4 * 4
+    tracemalloc.start()
+    try:
+        result = world_mod.project(empty_scene, 8)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < buffer_bytes + 64 * 2**20, peak / 2**20
+    assert result.source_size == (8192, 4096)
+    assert result.projected_size == (512, 256)
+    np.testing.assert_allclose(result.coeffs[0], SQRT_4PI * linear, rtol=1e-6)
+    np.testing.assert_allclose(result.coeffs[1:], 0.0, atol=1e-5)
+    bpy_module.data.images.remove(image)
+
+
+def test_reduction_keeps_the_coefficients(bpy_module):
+    """Reducing a 1024x512 HDRI to the 256 rows order 16 needs changes no coefficient by more
+    than 0.5 % of the coefficient norm (measured 0.1 % on forest; sunny maps up to 0.45 %)."""
+    from conftest import bundled_hdri_path
+
+    image = bpy_module.data.images.load(bundled_hdri_path("forest"))
+    w, h = image.size
+    buf = np.empty(w * h * 4, np.float32)
+    image.pixels.foreach_get(buf)
+    pixels = buf.reshape(h, w, 4)
+    full, _ = projection.project_equirect(pixels, 16)
+    reduced, _, _ = resample.reduce_equirect(pixels, *resample.target_size(h, w, 16))
+    small, _ = projection.project_equirect(reduced, 16)
+    assert reduced.shape == (256, 512, 3)
+    assert np.linalg.norm(small - full) < 5e-3 * np.linalg.norm(full)
+    np.testing.assert_allclose(small[0], full[0], rtol=1e-12)  # the flux is preserved exactly
+    bpy_module.data.images.remove(image)
+
+
+def test_no_world_or_no_light_is_a_clear_error(bpy_module, empty_scene):
+    from prt_addon import api
+
+    with pytest.raises(ValueError, match="has no World"):
+        api.project_world(empty_scene, 3)
+    with pytest.raises(RuntimeError, match="has no World"):
+        bpy_module.ops.prt.project_world()
+    world = new_world(bpy_module, empty_scene, color=(0.0, 0.0, 0.0))
+    with pytest.raises(ValueError, match="emits no light"):
+        api.project_world(empty_scene, 3)
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (1, 1, 1, 1)
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    with pytest.raises(ValueError, match="emits no light"):
+        api.project_world(empty_scene, 3)
+    world.node_tree.links.clear()
+    with pytest.raises(ValueError, match="Nothing is connected"):
+        api.project_world(empty_scene, 3)
+    assert empty_scene.prt_world.stored_order == 0
+    assert "prt_world_sh" not in empty_scene
+
+
+def test_failed_projection_leaves_stored_lighting_untouched(bpy_module, empty_scene, tmp_path):
+    from prt_addon import api
+
+    world = new_world(bpy_module, empty_scene, color=(0.5, 0.5, 0.5))
+    api.project_world(empty_scene, 4)
+    stored = list(empty_scene["prt_world_sh"])
+    token = empty_scene.prt_world.token
+
+    image = float_image(bpy_module, "gone", np.ones((4, 8, 3)))
+    image.filepath_raw = str(tmp_path / "gone.exr")
+    image.file_format = "OPEN_EXR"
+    image.save()
+    image.source = "FILE"
+    os.remove(image.filepath_raw)
+    image.reload()
+    env = use_image(world, image)
+    with pytest.raises(RuntimeError, match="not found"):
+        bpy_module.ops.prt.project_world(order=6)
+    env.image = None
+    with pytest.raises(RuntimeError, match="has no image"):
+        bpy_module.ops.prt.project_world(order=6)
+    with pytest.raises(ValueError, match="order"):
+        api.project_world(empty_scene, 0)
+    assert list(empty_scene["prt_world_sh"]) == stored
+    assert empty_scene.prt_world.token == token and empty_scene.prt_world.stored_order == 4
+
+
+def test_projection_is_saved_with_the_blend_file(bpy_module, empty_scene, tmp_path):
+    from prt_addon import api
+    from prt_addon.blender import world as world_mod
+
+    c = known_coeffs(4)
+    world = new_world(bpy_module, empty_scene)
+    env = use_image(world, float_image(bpy_module, "img", image_of(c, 32, 64)))
+    env.image.pack()
+    add_mapping(world, env, euler=(0.1, 0.2, 0.3))
+    result = bpy_module.ops.prt.project_world(order=4)
+    assert result == {"FINISHED"}
+    expected = api.world_lighting(empty_scene)
+    path = str(tmp_path / "saved.blend")
+    bpy_module.ops.wm.save_as_mainfile(filepath=path)
+    bpy_module.ops.wm.read_factory_settings(use_empty=True)
+    bpy_module.ops.wm.open_mainfile(filepath=path)
+    scene = bpy_module.context.scene
+    settings = scene.prt_world
+    assert settings.stored_order == 4 and settings.source_kind == "IMAGE"
+    assert settings.image_name == "img" and tuple(settings.image_size) == (64, 32)
+    assert settings.seconds > 0.0 and 0.0 <= settings.truncation < 1.0
+    assert len(scene[world_mod.SH_KEY]) == 16 * 3 and len(scene[world_mod.SH_WORLD_KEY]) == 16 * 3
+    np.testing.assert_allclose(world_mod.current_world_coeffs(scene), expected, atol=1e-12)
