@@ -59,3 +59,36 @@ def world_lighting(scene=None):
     from .blender import world as _world
 
     return _world.current_world_coeffs(bpy.context.scene if scene is None else scene)
+
+
+def bake(objects, order=4, samples=256, shadows=True, backend="AUTO", direction_set="FIBONACCI",
+         seed=0, self_shadow_only=False, progress=None, **options):
+    """Bake diffuse SH transfer into mesh objects (docs/bake.md, storage: docs/storage.md).
+
+    objects: an Object or a list; meshes that cannot be baked are listed in report.skipped.
+    backend: 'AUTO' (Embree when embreex imports, else BVH tree), 'EMBREE' or 'BVHTREE'.
+    direction_set: 'FIBONACCI', 'STRATIFIED' or 'UNIFORM' (seeded by `seed`).
+    self_shadow_only: only each object itself occludes (else every visible mesh in the scene).
+    progress: optional callable(fraction, text) after each chunk; an exception raised there
+    aborts the bake and leaves every mesh unchanged.
+    options: cull=True (skip rays where nothing can occlude), depsgraph, chunk_rays, threads.
+
+    Returns a BakeReport (seconds, rays_traced, rays_skipped and the reasons, backend,
+    error_estimate, error_estimate_relative, objects, skipped). Raises ValueError (BakeError)
+    with a clear message when nothing can be baked (empty selection, no mesh with faces, ...).
+    No undo step is pushed: use the operator prt.bake_transfer for that.
+    """
+    from .blender import bake_ops as _bake_ops
+
+    return _bake_ops.bake(objects, order=order, samples=samples, shadows=shadows, backend=backend,
+                          direction_set=direction_set, seed=seed,
+                          self_shadow_only=self_shadow_only, progress=progress, **options)
+
+
+def bake_status(obj, reason=False):
+    """'fresh', 'stale' (the topology changed since the bake) or 'none' for an object;
+    with reason=True, a (status, explanation) pair."""
+    from .blender import bake_ops as _bake_ops
+
+    state, why = _bake_ops.status(obj)
+    return (state, why) if reason else state

@@ -8,13 +8,14 @@ and a second register() without unregister() first unregisters what is there.
 
 import bpy
 
-from . import properties, panels, world_ops
+from . import bake_ops, panels, properties, world_ops
 
 # Order matters: property groups before the panels and operators that use them.
 MODULES = [
     properties,
     panels,
     world_ops,
+    bake_ops,
 ]
 
 _registered = []

@@ -1,0 +1,29 @@
+"""Fallback occluder on mathutils.bvhtree.BVHTree (same protocol as core.raytrace.EmbreeOccluder).
+
+ray_cast() holds the GIL and is called once per ray from Python, so this backend is single
+threaded (max_threads = 1) and roughly 20 times slower than Embree; it exists for platforms
+without an embreex wheel (Linux and Windows on ARM).
+"""
+
+import numpy as np
+from mathutils.bvhtree import BVHTree
+
+from ..core.raytrace import as_triangles
+
+
+class BVHTreeOccluder:
+    name = "BVHTREE"
+    max_threads = 1
+
+    def __init__(self, vertices, triangles):
+        v, t = as_triangles(vertices, triangles)
+        if len(t) == 0:
+            raise ValueError("an occluder needs at least one triangle")
+        self.triangle_count = len(t)
+        self._tree = BVHTree.FromPolygons(v.tolist(), t.tolist(), all_triangles=True, epsilon=0.0)
+
+    def occluded(self, origins, directions):
+        o = np.asarray(origins, dtype=np.float32).tolist()
+        d = np.asarray(directions, dtype=np.float32).tolist()
+        cast = self._tree.ray_cast
+        return np.fromiter((cast(a, b)[2] is not None for a, b in zip(o, d)), dtype=bool, count=len(o))

@@ -1,0 +1,185 @@
+"""Occluders for the transfer bake: the Embree backend and the "nothing can occlude" tests.
+
+Occluder protocol (duck-typed; `prt_addon/blender/bvh_backend.py` implements it with mathutils):
+
+    occluder.name          "EMBREE" or "BVHTREE"
+    occluder.max_threads   how many Python threads may call occluded() at once usefully
+    occluder.occluded(origins f32 (N, 3), directions f32 (N, 3)) -> bool (N,)
+
+A ray is occluded when it hits any triangle at a distance in (0, inf). The caller offsets the
+origins (Embree's tnear is fixed at 0). occluded() must be thread-safe.
+
+Culling (no rays where nothing can occlude), used by prt_addon.core.transfer:
+
+* `cannot_self_occlude(vertices, triangles)`: True when the mesh is planar, or closed and convex.
+  A ray leaving a point x of a convex body K with n . w > 0, where n lies in the normal cone of K
+  at x (a face normal, or an angle-weighted average of the face normals around a convex vertex,
+  which is what Blender's vertex normals are), stays in the open half-space {(z - x) . n > 0}
+  that contains no point of K. A planar mesh is the degenerate case. This does not hold for
+  custom normals, so the caller must not use it then.
+* `box_can_occlude(points, normals, lo, hi)`: an axis-aligned box can only occlude rays above the
+  tangent plane of (x, n) if part of it lies above that plane: max over the box of (z - x) . n =
+  (c - x) . n + h . |n| > 0, with c the centre and h the half extents.
+"""
+
+import threading
+
+import numpy as np
+
+try:  # the wheel exists for x86_64 Linux/Windows and macOS only
+    from embreex import mesh_construction as _embree_mesh
+    from embreex import rtcore_scene as _embree_scene
+
+    EMBREE_AVAILABLE = True
+    EMBREE_IMPORT_ERROR = ""
+except (ImportError, OSError) as exc:  # pragma: no cover - depends on the platform
+    _embree_mesh = _embree_scene = None
+    EMBREE_AVAILABLE = False
+    EMBREE_IMPORT_ERROR = f"{type(exc).__name__}: {exc}"
+
+
+def as_triangles(vertices, triangles):
+    """(V, 3) float32 C-contiguous vertices and (T, 3) int32 triangles, validated."""
+    v = np.ascontiguousarray(vertices, dtype=np.float32).reshape(-1, 3)
+    t = np.ascontiguousarray(triangles, dtype=np.int32).reshape(-1, 3)
+    if len(t) and (t.min() < 0 or t.max() >= len(v)):
+        raise ValueError("triangle indices out of range")
+    if not np.all(np.isfinite(v)):
+        raise ValueError("occluder vertices must be finite")
+    return v, t
+
+
+class EmbreeOccluder:
+    """Occlusion queries against a static triangle soup with embreex (Embree 4).
+
+    embreex's run() traces one ray at a time in one thread but releases the GIL, so several
+    Python threads calling occluded() on disjoint batches scale with the cores. The BVH is built
+    on the first run(): the constructor does it with one ray so that later calls are read-only.
+    """
+
+    name = "EMBREE"
+    max_threads = 16
+
+    def __init__(self, vertices, triangles, robust=False):
+        if not EMBREE_AVAILABLE:
+            raise RuntimeError(f"embreex is not available ({EMBREE_IMPORT_ERROR})")
+        v, t = as_triangles(vertices, triangles)
+        if len(t) == 0:
+            raise ValueError("an occluder needs at least one triangle")
+        self.triangle_count = len(t)
+        self._scene = _embree_scene.EmbreeScene(robust=robust)
+        self._mesh = _embree_mesh.TriangleMesh(self._scene, v, t)
+        self._lock = threading.Lock()
+        self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
+
+    def occluded(self, origins, directions):
+        o = np.ascontiguousarray(origins, dtype=np.float32)
+        d = np.ascontiguousarray(directions, dtype=np.float32)
+        if len(o) == 0:
+            return np.zeros(0, dtype=bool)
+        # run() returns int32: 0 where occluded, -1 where the ray is free.
+        return self._scene.run(o, d, query="OCCLUDED") == 0
+
+
+def make_embree_occluder(vertices, triangles):
+    return EmbreeOccluder(vertices, triangles)
+
+
+def bounding_box(vertices):
+    """(2, 3) float64 [min, max] of (V, 3) points."""
+    v = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    return np.stack([v.min(axis=0), v.max(axis=0)])
+
+
+def box_can_occlude(points, normals, boxes):
+    """(P,) bool: does any of the (K, 2, 3) boxes reach above the tangent plane of each point."""
+    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 2, 3)
+    if len(boxes) == 0:
+        return np.zeros(len(points), dtype=bool)
+    p = np.asarray(points, dtype=np.float64)
+    n = np.asarray(normals, dtype=np.float64)
+    centre = 0.5 * (boxes[:, 0] + boxes[:, 1])
+    half = 0.5 * (boxes[:, 1] - boxes[:, 0])
+    height = n @ centre.T + np.abs(n) @ half.T - np.einsum("ij,ij->i", p, n)[:, None]
+    return (height > 0.0).any(axis=1)
+
+
+def _triangle_normals(v, t):
+    return np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
+
+
+def is_planar(vertices, triangles, rel_tol=1e-6):
+    v = np.asarray(vertices, dtype=np.float64)
+    t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if len(t) == 0:
+        return False
+    used = v[np.unique(t)]
+    scale = np.linalg.norm(used.max(axis=0) - used.min(axis=0))
+    normal = _triangle_normals(v, t).sum(axis=0)
+    length = np.linalg.norm(normal)
+    if length == 0.0 or scale == 0.0:
+        return False
+    normal /= length
+    height = (used - used.mean(axis=0)) @ normal
+    return bool(np.abs(height).max() <= rel_tol * scale)
+
+
+def is_closed_convex(vertices, triangles, rel_tol=1e-6):
+    """True when the triangles form one closed, consistently oriented, convex surface.
+
+    Checks: every edge is shared by exactly two triangles with opposite orientations; every edge
+    is convex (the far vertex of each neighbour lies on or behind the triangle's plane); the
+    Euler characteristic V - E + F is 2 (one sphere-like piece); the corner angles around every
+    vertex sum to at most 2 pi. A closed connected surface that is locally convex everywhere
+    bounds a convex body (Gauss-Bonnet fixes the degree of its Gauss map to 1).
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if len(t) < 4:
+        return False
+    used = np.unique(t)
+    scale = np.linalg.norm(v[used].max(axis=0) - v[used].min(axis=0))
+    if scale == 0.0:
+        return False
+    tol = rel_tol * scale
+    # Directed half-edges (a -> b) of every triangle, with the opposite vertex.
+    a = t.ravel()
+    b = t[:, [1, 2, 0]].ravel()
+    opposite = t[:, [2, 0, 1]].ravel()
+    face = np.repeat(np.arange(len(t)), 3)
+    n_vert = int(t.max()) + 1
+    key = a * n_vert + b
+    twin_key = b * n_vert + a
+    order = np.argsort(key)
+    sorted_key = key[order]
+    if np.any(sorted_key[1:] == sorted_key[:-1]):
+        return False  # a directed edge used twice: non-manifold or inconsistent orientation
+    pos = np.searchsorted(sorted_key, twin_key)
+    pos = np.minimum(pos, len(sorted_key) - 1)
+    if not np.all(sorted_key[pos] == twin_key):
+        return False  # a boundary edge: not closed
+    twin = order[pos]
+    normals = _triangle_normals(v, t)
+    lengths = np.linalg.norm(normals, axis=1)
+    unit = normals / np.where(lengths > 0, lengths, 1.0)[:, None]
+    # Far vertex of the neighbouring triangle against this triangle's plane.
+    height = np.einsum("ij,ij->i", v[opposite[twin]] - v[a], unit[face])
+    if np.any(height > tol):
+        return False
+    edges = len(a) // 2
+    if len(used) - edges + len(t) != 2:
+        return False
+    # Corner angles.
+    e1 = v[b] - v[a]
+    e2 = v[opposite] - v[a]
+    cos = np.einsum("ij,ij->i", e1, e2) / np.maximum(
+        np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1), 1e-300
+    )
+    angles = np.arccos(np.clip(cos, -1.0, 1.0))
+    angle_sum = np.bincount(a, weights=angles, minlength=n_vert)[used]
+    return bool(np.all(angle_sum <= 2.0 * np.pi + 1e-6))
+
+
+def cannot_self_occlude(vertices, triangles):
+    """True when no ray above a surface point's tangent plane can hit this same mesh."""
+    return is_planar(vertices, triangles) or is_closed_convex(vertices, triangles)

@@ -1,0 +1,431 @@
+"""Diffuse transfer vectors by Monte-Carlo projection over a shared direction set.
+
+For a surface point x with unit normal n, the diffuse transfer is
+
+    unshadowed  T(w) = max(0, n . w) / pi
+    shadowed    T(w) = max(0, n . w) / pi * V(x, w)      (V = 1 if the ray x -> w is free)
+
+and its SH projection over the N equal-weight directions w_k of a DirectionSet is
+
+    t_i = 4 pi / N * sum_k T(w_k) y_i(w_k).
+
+Radiance under lighting L (SH coefficients L_i, albedo applied later) is sum_i L_i t_i.
+
+Work skipped (counted in TransferStats, never traced):
+* directions with n . w <= 0 (T = 0 there: below the tangent plane);
+* every direction of a point where nothing can occlude: the caller says whether the point's own
+  mesh can occlude it (`self_occludes`, see core.raytrace.cannot_self_occlude) and passes the
+  boxes of the other occluders; a point none of whose boxes reaches above its tangent plane and
+  whose own mesh cannot occlude it is unshadowed.
+
+Error estimate: the direction set is split into two interleaved halves A (even k) and B (odd k),
+each an unbiased quadrature on its own. t = (|A| t_A + |B| t_B) / N, and |t_A - t_B| / 2 is, for
+i.i.d. directions, an unbiased proxy of the standard error of t (Var(t_A - t_B) = 4 Var(t) when
+|A| = |B|). For low-discrepancy sets (Fibonacci) it overestimates the error of the full set,
+because halving the set costs more than a factor sqrt(2); see docs/bake.md for the measured
+ratio. The per-point figure is the L2 norm over the coefficients.
+
+Memory: points are processed in slices of at most chunk_rays / threads candidate (point,
+direction) pairs per thread. Each pair costs about RAY_BYTES of buffers, so the working set is
+about chunk_rays * RAY_BYTES (25 MB at the default 2^18), independent of the sample count and of
+the mesh size; the outputs (P x n^2 float32 plus P error values) come on top. When one point
+alone has more directions than a slice holds, its directions are processed in blocks.
+
+Threads: each chunk is split between `threads` worker threads that build their rays, trace them
+and project them; Embree and numpy release the GIL, so two threads use both cores.
+"""
+
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .directions import DirectionSet
+from .sh import check_order
+from .raytrace import box_can_occlude
+
+CHUNK_RAYS = 1 << 18
+SLICES_PER_THREAD = 4  # slices per step() and thread
+# Working memory per candidate ray (one point-direction pair of a slice), per-thread buffers
+# reused across slices: weight f64 (8), horizon mask (1), flat and point indices (16), origin and
+# direction f32 (24), the flat iota and row-index tables (16), the tiled directions (12, shared);
+# plus, per traced ray, Embree's int32 result and the hit mask (5). Checked with tracemalloc in
+# tests/test_transfer.py.
+RAY_BYTES = 96
+
+
+# OpenBLAS runs a matrix product on its own thread pool when m * n * k exceeds about 2^18 (the
+# default SMP threshold), and its spinning workers then fight the two tracing threads for the
+# two cores: measured, the 2-thread bake became slower than the 1-thread one. Products are
+# therefore split by rows to stay below that size, which keeps every BLAS call serial.
+BLAS_SERIAL_MNK = 1 << 18
+
+
+def _matmul_rows(a, b, out=None, accumulate=False):
+    """a @ b (or out += a @ b) computed in row blocks small enough for a serial BLAS call."""
+    rows = max(1, BLAS_SERIAL_MNK // max(1, a.shape[1] * b.shape[1]))
+    if out is None:
+        out = np.empty((a.shape[0], b.shape[1]), dtype=np.result_type(a, b))
+        accumulate = False
+    for r0 in range(0, a.shape[0], rows):
+        r1 = min(a.shape[0], r0 + rows)
+        if accumulate:
+            out[r0:r1] += a[r0:r1] @ b
+        else:
+            np.matmul(a[r0:r1], b, out=out[r0:r1])
+    return out
+
+
+class Cancelled(Exception):
+    """Raised by TransferComputation.run() when cancel() was called."""
+
+
+@dataclass
+class TransferStats:
+    points: int = 0
+    candidate_rays: int = 0  # points * directions
+    rays_traced: int = 0
+    skipped_below_horizon: int = 0
+    skipped_unoccludable: int = 0  # above the horizon, but nothing can occlude the point
+    skipped_shadows_off: int = 0  # above the horizon, shadows disabled
+    occluded_rays: int = 0
+    seconds: float = 0.0
+    trace_seconds: float = 0.0  # summed over threads
+
+    @property
+    def rays_skipped(self):
+        return self.skipped_below_horizon + self.skipped_unoccludable + self.skipped_shadows_off
+
+    def add(self, other):
+        for name in (
+            "points", "candidate_rays", "rays_traced", "skipped_below_horizon",
+            "skipped_unoccludable", "skipped_shadows_off", "occluded_rays", "seconds",
+            "trace_seconds",
+        ):
+            setattr(self, name, getattr(self, name) + getattr(other, name))
+        return self
+
+    def as_dict(self):
+        return {
+            "points": self.points,
+            "rays_traced": self.rays_traced,
+            "rays_skipped": self.rays_skipped,
+            "skipped_below_horizon": self.skipped_below_horizon,
+            "skipped_unoccludable": self.skipped_unoccludable,
+            "skipped_shadows_off": self.skipped_shadows_off,
+            "occluded_rays": self.occluded_rays,
+            "seconds": self.seconds,
+        }
+
+
+@dataclass
+class TransferResult:
+    coeffs: np.ndarray  # (P, n*n) float32
+    error: np.ndarray  # (P,) float32: per-point |t_A - t_B| / 2 (L2 over coefficients)
+    stats: TransferStats = field(default_factory=TransferStats)
+
+    def error_rms(self):
+        return float(np.sqrt(np.mean(np.square(self.error, dtype=np.float64)))) if len(self.error) else 0.0
+
+    def error_relative(self):
+        """RMS error estimate over RMS transfer norm (dimensionless)."""
+        if not len(self.error):
+            return 0.0
+        norm = np.sqrt(np.mean(np.sum(np.square(self.coeffs, dtype=np.float64), axis=1)))
+        return self.error_rms() / norm if norm > 0 else 0.0
+
+
+def _unit_normals(normals):
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    length = np.linalg.norm(n, axis=1)
+    ok = np.isfinite(length) & (length > 1e-12)
+    out = np.zeros_like(n)
+    out[ok] = n[ok] / length[ok, None]
+    return out
+
+
+class TransferComputation:
+    """Transfer vectors of P points, computed chunk by chunk (step()) or at once (run()).
+
+    positions, normals: (P, 3) world-space; normals need not be unit (zero normals give t = 0).
+    occluder: None (unshadowed) or an object of the core.raytrace protocol.
+    offset: ray origin offset along the normal, scalar or (P,) (see docs/bake.md).
+    self_occludes: bool or (P,) bool, whether the points' own mesh can occlude them.
+    other_boxes: (K, 2, 3) boxes of the other occluders (for culling); None means "unknown",
+    i.e. every point with self_occludes False is still traced unless other_boxes is given.
+    pool: an optional ThreadPoolExecutor to share between computations (else one is made and
+    shut down by close()).
+    """
+
+    def __init__(self, positions, normals, directions, order, occluder=None, offset=0.0,
+                 self_occludes=True, other_boxes=None, chunk_rays=CHUNK_RAYS, threads=2,
+                 pool=None):
+        if not isinstance(directions, DirectionSet):
+            raise TypeError("directions must be a DirectionSet (core.directions.make_directions)")
+        self.order = check_order(order)
+        self.positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+        self.normals = _unit_normals(normals)
+        if len(self.positions) != len(self.normals):
+            raise ValueError("positions and normals must have the same length")
+        count = len(self.positions)
+        self.occluder = occluder
+        # Interleaved halves A = even k, B = odd k, stored A first so that each half is a slice.
+        dirs = directions.directions
+        basis = directions.basis(self.order)
+        self.n_dirs = len(dirs)
+        self.n_a = (self.n_dirs + 1) // 2
+        perm = np.concatenate([np.arange(0, self.n_dirs, 2), np.arange(1, self.n_dirs, 2)])
+        self.dirs64 = np.ascontiguousarray(dirs[perm])
+        self.dirs32 = self.dirs64.astype(np.float32)
+        self.dirs64T = np.ascontiguousarray(self.dirs64.T)
+        self.basis = np.ascontiguousarray(basis[perm])
+        offset = np.broadcast_to(np.asarray(offset, dtype=np.float64), (count,))
+        self.origins32 = (self.positions + offset[:, None] * self.normals).astype(np.float32)
+        self.self_occludes = np.broadcast_to(np.asarray(self_occludes, dtype=bool), (count,))
+        self.other_boxes = None if other_boxes is None else np.asarray(other_boxes, np.float64).reshape(-1, 2, 3)
+        self.chunk_rays = max(1, int(chunk_rays))
+        self.threads = max(1, int(threads))
+        if occluder is not None:
+            self.threads = max(1, min(self.threads, int(getattr(occluder, "max_threads", 1))))
+        # chunk_rays candidate rays in flight in all threads together.
+        per_thread = max(1, self.chunk_rays // self.threads)
+        self.points_per_slice = max(1, per_thread // self.n_dirs)
+        self.dir_block = min(self.n_dirs, per_thread)
+        self.coeffs = np.zeros((count, self.order * self.order), dtype=np.float32)
+        self.error = np.zeros(count, dtype=np.float32)
+        self.stats = TransferStats(points=count, candidate_rays=count * self.n_dirs)
+        self.done = 0
+        self._tiles = {}
+        self._local = threading.local()
+        self._cancel = False
+        self._pool = pool
+        self._own_pool = pool is None
+
+    @property
+    def total(self):
+        return len(self.positions)
+
+    @property
+    def fraction(self):
+        return self.done / self.total if self.total else 1.0
+
+    def cancel(self):
+        self._cancel = True
+
+    def close(self):
+        if self._pool is not None and self._own_pool:
+            self._pool.shutdown(wait=True)
+            self._pool = None
+
+    def _needs_rays(self, lo, hi):
+        if self.occluder is None:
+            return np.zeros(hi - lo, dtype=bool)
+        needs = np.array(self.self_occludes[lo:hi])
+        if self.other_boxes is None:
+            needs[:] = True
+        elif len(self.other_boxes):
+            needs |= box_can_occlude(self.positions[lo:hi], self.normals[lo:hi], self.other_boxes)
+        return needs
+
+    def _workspace(self):
+        """Per-thread buffers, reused for every slice: allocating fresh multi-megabyte arrays
+        per slice cost more than the numpy work itself (page faults on first touch)."""
+        ws = getattr(self._local, "ws", None)
+        if ws is None:
+            size = self.points_per_slice * self.dir_block
+            ws = self._local.ws = {
+                "weight": np.empty(size),
+                "above": np.empty(size, dtype=bool),
+                "flat": np.empty(size, dtype=np.intp),
+                "index": np.empty(size, dtype=np.intp),
+                "origins": np.empty((size, 3), dtype=np.float32),
+                "dirs": np.empty((size, 3), dtype=np.float32),
+                "iota": np.arange(size, dtype=np.intp),
+                "rows": {},
+            }
+        return ws
+
+    def _row_index(self, ws, cols):
+        """Point index (row) of each flat position of a (points_per_slice, cols) block."""
+        rows = ws["rows"].get(cols)
+        if rows is None:
+            rows = ws["rows"][cols] = np.repeat(np.arange(self.points_per_slice, dtype=np.intp), cols)
+        return rows
+
+    def _block(self, lo, hi, k0, k1, needs):
+        """Directions [k0, k1) of points [lo, hi): (weight, n_above, flat, origins, dirs).
+
+        weight is max(0, n . w) (T * pi), (hi - lo, k1 - k0) float64; `flat` are the flat
+        indices into weight of the rays to trace (above the horizon, at points that need rays),
+        point-major, and origins/dirs those rays (float32). All are views of per-thread buffers,
+        valid until the next call in the same thread.
+        """
+        ws = self._workspace()
+        n_pts, cols = hi - lo, k1 - k0
+        size = n_pts * cols
+        weight = ws["weight"][:size].reshape(n_pts, cols)
+        _matmul_rows(self.normals[lo:hi], self.dirs64T[:, k0:k1], out=weight)
+        above = ws["above"][:size]
+        np.greater(weight.reshape(-1), 0.0, out=above)
+        n_above = int(np.count_nonzero(above))
+        np.maximum(weight, 0.0, out=weight)
+        if not needs.all():
+            above &= np.repeat(needs, cols)
+        n_trace = n_above if needs.all() else int(np.count_nonzero(above))
+        flat = np.compress(above, ws["iota"][:size], out=ws["flat"][:n_trace])
+        index = np.compress(above, self._row_index(ws, cols)[:size], out=ws["index"][:n_trace])
+        origins = np.take(self.origins32[lo:hi], index, axis=0, out=ws["origins"][:n_trace])
+        dirs = np.take(self._tiled_dirs(k0, k1), flat, axis=0, out=ws["dirs"][:n_trace])
+        return weight, n_above, flat, origins, dirs
+
+    def _tiled_dirs(self, k0, k1):
+        """dirs32[k0:k1] repeated for points_per_slice points: gathering from it by flat index
+        is several times faster than boolean indexing of a broadcast view."""
+        key = (k0, k1)
+        tiled = self._tiles.get(key)
+        if tiled is None:
+            tiled = self._tiles[key] = np.tile(self.dirs32[k0:k1], (self.points_per_slice, 1))
+        return tiled
+
+    def iter_rays(self):
+        """Every (origins, directions) batch the bake traces, in the same order (benchmarks)."""
+        for lo in range(0, self.total, self.points_per_slice):
+            hi = min(self.total, lo + self.points_per_slice)
+            needs = self._needs_rays(lo, hi)
+            if not needs.any():
+                continue
+            for k0 in range(0, self.n_dirs, self.dir_block):
+                k1 = min(self.n_dirs, k0 + self.dir_block)
+                _w, _n, _t, origins, dirs = self._block(lo, hi, k0, k1, needs)
+                if len(origins):
+                    yield origins.copy(), dirs.copy()
+
+    def _slice(self, lo, hi):
+        """Project points [lo, hi): returns (t, err, stats) for the slice."""
+        stats = TransferStats()
+        n_pts = hi - lo
+        nn = self.order * self.order
+        sum_a = np.zeros((n_pts, nn))
+        sum_b = np.zeros((n_pts, nn))
+        needs = self._needs_rays(lo, hi)
+        for k0 in range(0, self.n_dirs, self.dir_block):
+            k1 = min(self.n_dirs, k0 + self.dir_block)
+            weight, n_above, flat, origins, dirs = self._block(lo, hi, k0, k1, needs)
+            n_trace = len(origins)
+            stats.skipped_below_horizon += weight.size - n_above
+            if self.occluder is None:
+                stats.skipped_shadows_off += n_above
+            else:
+                stats.skipped_unoccludable += n_above - n_trace
+            if n_trace:
+                t0 = time.perf_counter()
+                hit = np.asarray(self.occluder.occluded(origins, dirs), dtype=bool)
+                stats.trace_seconds += time.perf_counter() - t0
+                if hit.shape != (n_trace,):
+                    raise RuntimeError(f"occluder returned shape {hit.shape} for {n_trace} rays")
+                stats.rays_traced += n_trace
+                n_hit = int(np.count_nonzero(hit))
+                stats.occluded_rays += n_hit
+                if n_hit:
+                    hit_flat = np.compress(hit, flat, out=self._workspace()["index"][:n_hit])
+                    np.put(weight.reshape(-1), hit_flat, 0.0)
+            # Split the block at the A/B boundary (self.n_a) of the permuted direction order.
+            split = min(max(self.n_a - k0, 0), k1 - k0)
+            if split > 0:
+                _matmul_rows(weight[:, :split], self.basis[k0 : k0 + split], sum_a, accumulate=True)
+            if split < k1 - k0:
+                _matmul_rows(weight[:, split:], self.basis[k0 + split : k1], sum_b, accumulate=True)
+        n_b = self.n_dirs - self.n_a
+        scale = 4.0  # 4 pi / N * (1 / pi) per direction, times N
+        t = (sum_a + sum_b) * (scale / self.n_dirs)
+        if n_b:
+            diff = sum_a / self.n_a - sum_b / n_b
+            err = 0.5 * scale * np.sqrt(np.einsum("ij,ij->i", diff, diff))
+        else:
+            err = np.full(n_pts, np.inf)
+        return t, err, stats
+
+    def step(self):
+        """Process one chunk; returns False when every point is done."""
+        if self._cancel:
+            raise Cancelled()
+        if self.done >= self.total:
+            return False
+        t_start = time.perf_counter()
+        lo = self.done
+        # Several slices per step, taken by whichever worker is free (no lock-step between the
+        # threads); at most `threads` slices are in flight, so the memory bound holds.
+        step_points = self.points_per_slice * self.threads * SLICES_PER_THREAD
+        hi = min(self.total, lo + step_points)
+        pieces = [(a, min(hi, a + self.points_per_slice)) for a in range(lo, hi, self.points_per_slice)]
+        if len(pieces) > 1 and self.threads > 1:
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(self.threads, thread_name_prefix="prt-bake")
+            results = list(self._pool.map(lambda ab: self._slice(*ab), pieces))
+        else:
+            results = [self._slice(a, b) for a, b in pieces]
+        for (a, b), (t, err, stats) in zip(pieces, results):
+            self.coeffs[a:b] = t
+            self.error[a:b] = err
+            stats.points = stats.candidate_rays = 0
+            self.stats.add(stats)
+        self.done = hi
+        self.stats.seconds += time.perf_counter() - t_start
+        return self.done < self.total
+
+    def result(self):
+        return TransferResult(self.coeffs, self.error, self.stats)
+
+    def run(self, progress=None):
+        """Compute everything; progress(fraction) is called after each chunk."""
+        try:
+            while self.step():
+                if progress is not None:
+                    progress(self.fraction)
+        finally:
+            self.close()
+        return self.result()
+
+
+def compute_transfer(positions, normals, directions, order, occluder=None, **kwargs):
+    """(P, n*n) float32 transfer vectors, per-point error estimates and stats (TransferResult)."""
+    return TransferComputation(positions, normals, directions, order, occluder, **kwargs).run()
+
+
+def frame_rotation(linear):
+    """(R, mirrored): the rotation part of a 3x3 matrix by polar decomposition.
+
+    linear = Q S with Q orthogonal; R = Q when det Q > 0. For a mirroring matrix (det Q < 0)
+    R = -Q is a proper rotation and `mirrored` is True: Q w = R (-w).
+    """
+    u, _s, vt = np.linalg.svd(np.asarray(linear, dtype=np.float64)[:3, :3])
+    q = u @ vt
+    if np.linalg.det(q) < 0:
+        return -q, True
+    return q, False
+
+
+def to_local_frame(coeffs, linear):
+    """World-frame transfer (P, n*n) -> coefficients of t_local(u) = t_world(Q u).
+
+    Q is the orthogonal polar factor of `linear` (the object's matrix_world, 3x3 part). With
+    Q = R a rotation this is rotation_matrix(R^-1) applied to each row. With Q = -R (negative
+    scale) the odd bands are negated too, because t_world(-R u) is the point reflection of
+    t_world rotated by R^-1, and a point reflection multiplies band l by (-1)^l.
+    """
+    from .rotation import rotation_matrix
+    from .sh import band_of_index, order_of
+
+    coeffs = np.asarray(coeffs)
+    order = order_of(coeffs.shape[1])
+    r, mirrored = frame_rotation(linear)
+    m = rotation_matrix(r.T, order)
+    if mirrored:
+        m = m * np.where(band_of_index(order) % 2 == 1, -1.0, 1.0)[None, :]
+    out = np.empty(coeffs.shape, dtype=coeffs.dtype)
+    for r0 in range(0, len(coeffs), 1 << 16):  # float64 maths in bounded blocks
+        block = coeffs[r0 : r0 + (1 << 16)].astype(np.float64)
+        out[r0 : r0 + len(block)] = block @ m.T
+    return out

@@ -1,0 +1,392 @@
+"""The transfer bake in Blender: operator, API, backends, storage, staleness, failure safety."""
+
+import json
+import types
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.blender
+
+from prt_addon.core import analytic, raytrace, transfer  # noqa: E402
+
+
+@pytest.fixture
+def bake_ops(addon):
+    from prt_addon.blender import bake_ops
+
+    return bake_ops
+
+
+@pytest.fixture
+def mesh_io(addon):
+    from prt_addon.blender import mesh_io
+
+    return mesh_io
+
+
+def _monkey_on_ground(bpy, ground_cuts=8, smooth=True):
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=ground_cuts, y_subdivisions=ground_cuts, size=6)
+    ground = bpy.context.object
+    bpy.ops.mesh.primitive_monkey_add(location=(0, 0, 1.0))
+    monkey = bpy.context.object
+    if smooth:
+        monkey.data.shade_smooth()
+    return ground, monkey
+
+
+def _attr_bytes(mesh):
+    """{name: (domain, data_type, raw bytes)} of every prt_* attribute, plus the record."""
+    out = {}
+    for attr in mesh.attributes:
+        if attr.name.startswith("prt_"):
+            buf = np.empty(len(attr.data) * 4, np.float32)
+            mesh.attributes[attr.name].data.foreach_get("color", buf)
+            out[attr.name] = (attr.domain, attr.data_type, buf.tobytes())
+    record = mesh.get("prt_bake")
+    out["record"] = json.dumps(record.to_dict() if record is not None else None, sort_keys=True)
+    out["active"] = mesh.color_attributes.active_color_name
+    return out
+
+
+def _scale_scene(bpy, factor):
+    for obj in bpy.context.scene.objects:
+        obj.location = obj.location * factor
+        obj.scale = obj.scale * factor
+    bpy.context.view_layer.update()
+
+
+def test_operator_bakes_selection_and_writes_storage(empty_scene, bpy_module, mesh_io):
+    bpy = bpy_module
+    ground, monkey = _monkey_on_ground(bpy)
+    for obj in (ground, monkey):
+        obj.select_set(True)
+    settings = empty_scene.prt_bake
+    settings.order, settings.samples = 3, 64
+    assert bpy.ops.prt.bake_transfer() == {"FINISHED"}
+    record = monkey.data["prt_bake"]
+    assert record["order"] == 3 and record["count"] == 3 and record["domain"] == "POINT"
+    assert record["backend"] in ("EMBREE", "BVHTREE") and record["rays_traced"] > 0
+    for k in range(3):
+        attr = monkey.data.attributes[f"prt_t{k:02d}"]
+        assert attr.data_type == "FLOAT_COLOR" and attr.domain == "POINT"
+    values = mesh_io.read_transfer(monkey.data)
+    assert values.shape == (len(monkey.data.vertices), 9) and np.isfinite(values).all()
+    report = json.loads(settings.last_report)
+    assert report["ok"] and report["rays_traced"] > 0 and report["error_estimate"] > 0
+    assert set(report["objects"]) == {ground.name, monkey.name}
+    from prt_addon import api
+
+    assert api.bake_status(monkey) == "fresh" and api.bake_status(ground) == "fresh"
+    # Lower order: the extra attributes go; higher again: they come back.
+    api.bake([monkey], order=2, samples=32)
+    assert monkey.data["prt_bake"]["count"] == 1
+    assert [a.name for a in monkey.data.attributes if a.name.startswith("prt_t")] == ["prt_t00"]
+    assert "UNDO" in bpy.types.PRT_OT_bake_transfer.bl_options
+
+
+def test_flat_shading_bakes_per_corner(empty_scene, bpy_module, mesh_io):
+    bpy = bpy_module
+    ground, monkey = _monkey_on_ground(bpy, smooth=False)
+    from prt_addon import api
+
+    api.bake([monkey, ground], order=2, samples=32)
+    assert monkey.data["prt_bake"]["domain"] == "CORNER"
+    assert len(monkey.data.attributes["prt_t00"].data) == len(monkey.data.loops)
+    # A flat grid has one normal per vertex: stored per vertex.
+    assert ground.data["prt_bake"]["domain"] == "POINT"
+
+
+def test_unoccluded_vertex_is_clamped_cosine_in_local_frame(empty_scene, bpy_module, mesh_io):
+    """A lone convex object: no rays at all, and each vertex stores the clamped cosine of its
+    local normal (the local frame undoes the object's rotation and scale)."""
+    bpy = bpy_module
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=12, ring_count=6, rotation=(0.3, 0.5, 0.7),
+                                         scale=(1, 2, 0.5))
+    sphere = bpy.context.object
+    sphere.data.shade_smooth()
+    from prt_addon import api
+
+    report = api.bake([sphere], order=3, samples=2048)
+    assert report.rays_traced == 0 and report.backend == "NONE"
+    assert report.skipped_unoccludable > 0
+    normals = mesh_io.read_vertex_normals(sphere.data).astype(np.float64)
+    # Normals in the local frame: world normal (inverse transpose) rotated back by R^-1.
+    m = np.array(sphere.matrix_world)[:3, :3]
+    world = normals @ np.linalg.inv(m)
+    world /= np.linalg.norm(world, axis=1, keepdims=True)
+    r, _ = transfer.frame_rotation(m)
+    local = world @ r
+    values = mesh_io.read_transfer(sphere.data)
+    expected = np.array([analytic.clamped_cosine_coeffs(3, n) for n in local])
+    np.testing.assert_allclose(values, expected, atol=2e-4)
+
+
+def test_coarse_smooth_mesh_does_not_shadow_itself(empty_scene, bpy_module, mesh_io):
+    bpy = bpy_module
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=8, ring_count=4)
+    sphere = bpy.context.object
+    sphere.data.shade_smooth()
+    from prt_addon import api
+
+    report = api.bake([sphere], order=3, samples=512, self_shadow_only=True, cull=False)
+    assert report.rays_traced > 0
+    shadowed = mesh_io.read_transfer(sphere.data)
+    api.bake([sphere], order=3, samples=512, shadows=False)
+    np.testing.assert_array_equal(shadowed, mesh_io.read_transfer(sphere.data))
+
+
+def _parity_rays(bake_ops, objects, samples):
+    job = bake_ops.BakeJob(objects, bake_ops.BakeSettings(order=2, samples=samples, backend="EMBREE"))
+    import bpy
+
+    parts = bake_ops._scene_parts(bpy.context.evaluated_depsgraph_get())
+    vertices, triangles = bake_ops._concatenate(parts)
+    origins, dirs = [], []
+    for plan in job.plans:
+        for o, d in plan.computation.iter_rays():
+            origins.append(o)
+            dirs.append(d)
+    return vertices, triangles, np.concatenate(origins), np.concatenate(dirs)
+
+
+@pytest.mark.skipif(not raytrace.EMBREE_AVAILABLE, reason="embreex not installed")
+def test_embree_and_bvhtree_agree_on_the_same_rays(empty_scene, bpy_module, bake_ops):
+    from prt_addon.blender.bvh_backend import BVHTreeOccluder
+
+    ground, monkey = _monkey_on_ground(bpy_module)
+    vertices, triangles, origins, dirs = _parity_rays(bake_ops, [monkey, ground], 128)
+    embree = raytrace.EmbreeOccluder(vertices, triangles).occluded(origins, dirs)
+    bvh = BVHTreeOccluder(vertices, triangles).occluded(origins, dirs)
+    agreement = np.mean(embree == bvh)
+    assert len(origins) > 20000 and 0.05 < embree.mean() < 0.95
+    assert agreement >= 0.999, agreement
+    # And whole bakes agree.
+    from prt_addon import api
+
+    from prt_addon.blender import mesh_io
+
+    r1 = api.bake([monkey], order=3, samples=64, backend="EMBREE")
+    a = mesh_io.read_transfer(monkey.data)
+    r2 = api.bake([monkey], order=3, samples=64, backend="BVHTREE")
+    b = mesh_io.read_transfer(monkey.data)
+    assert (r1.backend, r2.backend) == ("EMBREE", "BVHTREE")
+    assert monkey.data["prt_bake"]["backend"] == "BVHTREE"
+    assert np.mean(np.abs(a - b)) < 1e-3
+
+
+class _FakeOperator:
+    """Stands in for the operator instance (Blender creates those only through bpy.ops)."""
+
+
+def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, bpy_module, bake_ops,
+                                                                  monkeypatch):
+    monkeypatch.setattr(bake_ops, "TIME_SLICE", 0.0)  # one chunk per timer event
+    bpy = bpy_module
+    ground, monkey = _monkey_on_ground(bpy)
+    from prt_addon import api
+
+    api.bake([monkey, ground], order=3, samples=32)
+    before = {o.name: _attr_bytes(o.data) for o in (ground, monkey)}
+    settings = empty_scene.prt_bake
+    settings.order, settings.samples = 4, 256
+    job = bake_ops.BakeJob([monkey, ground], bake_ops.BakeSettings(order=4, samples=256, chunk_rays=4096))
+    # Drive the operator's modal() with a stand-in for the operator instance.
+    op = _FakeOperator()
+    op._bake, op._steps, op._timer, op.reports = job, job.steps(), None, []
+    op.report = lambda kind, msg: op.reports.append((kind, msg))
+    op._cleanup = lambda ctx: bake_ops.PRT_OT_bake_transfer._cleanup(op, ctx)
+    op._fail = lambda ctx, exc: bake_ops.PRT_OT_bake_transfer._fail(op, ctx, exc)
+    modal = bake_ops.PRT_OT_bake_transfer.modal
+    timer = types.SimpleNamespace(type="TIMER", timer=None)
+    assert modal(op, bpy.context, timer) == {"RUNNING_MODAL"}
+    assert 0 < job.fraction < 1
+    assert modal(op, bpy.context, types.SimpleNamespace(type="ESC", timer=None)) == {"CANCELLED"}
+    assert "cancelled" in json.loads(settings.last_report)["message"]
+    assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
+    # The modal path also finishes a bake.
+    job = bake_ops.BakeJob([monkey], bake_ops.BakeSettings(order=2, samples=32))
+    op._bake, op._steps = job, job.steps()
+    result = {"RUNNING_MODAL"}
+    while result == {"RUNNING_MODAL"}:
+        result = modal(op, bpy.context, timer)
+    assert result == {"FINISHED"} and monkey.data["prt_bake"]["order"] == 2
+
+
+def test_failing_bake_leaves_attributes_untouched(empty_scene, bpy_module, bake_ops, mesh_io, monkeypatch):
+    bpy = bpy_module
+    ground, monkey = _monkey_on_ground(bpy)
+    from prt_addon import api
+
+    api.bake([monkey, ground], order=3, samples=32)
+    before = {o.name: _attr_bytes(o.data) for o in (ground, monkey)}
+
+    def explode(fraction, text):
+        if fraction > 0.3:
+            raise RuntimeError("injected failure")
+
+    with pytest.raises(RuntimeError, match="injected"):
+        api.bake([monkey, ground], order=4, samples=64, progress=explode, chunk_rays=4096)
+    assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
+
+    # A failure while writing the second mesh: the first one is restored too.
+    real_write = mesh_io.write_transfer
+    calls = []
+
+    def write_then_fail(mesh, *args):
+        calls.append(mesh.name)
+        if len(calls) == 2:
+            raise RuntimeError("injected write failure")
+        return real_write(mesh, *args)
+
+    monkeypatch.setattr(mesh_io, "write_transfer", write_then_fail)
+    with pytest.raises(RuntimeError, match="injected write"):
+        api.bake([monkey, ground], order=4, samples=32)
+    assert len(calls) == 2
+    assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
+
+    # The operator reports the failure and cancels.
+    monkeypatch.setattr(mesh_io, "write_transfer", lambda *a: (_ for _ in ()).throw(RuntimeError("boom")))
+    for obj in (ground, monkey):
+        obj.select_set(True)
+    # In background mode bpy.ops turns an ERROR report into RuntimeError.
+    with pytest.raises(RuntimeError, match="nothing was changed: boom"):
+        bpy.ops.prt.bake_transfer()
+    assert "boom" in json.loads(empty_scene.prt_bake.last_report)["message"]
+    assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
+
+
+def test_topology_edit_is_stale(empty_scene, bpy_module):
+    import bmesh
+
+    bpy = bpy_module
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2)
+    obj = bpy.context.object
+    from prt_addon import api
+
+    assert api.bake_status(obj) == "none"
+    api.bake([obj], order=2, samples=32)
+    assert api.bake_status(obj) == "fresh"
+    obj.data.vertices[0].co.x += 0.1  # moving a vertex keeps the topology
+    assert api.bake_status(obj) == "fresh"
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bmesh.ops.triangulate(bm, faces=bm.faces[:])  # already triangles: no change
+    bm.to_mesh(obj.data)
+    assert api.bake_status(obj) == "fresh"
+    # Rotating one edge keeps every count but changes which vertices the corners use.
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bm.edges.ensure_lookup_table()
+    bmesh.ops.rotate_edges(bm, edges=[bm.edges[5]], use_ccw=True)
+    bm.to_mesh(obj.data)
+    bm.free()
+    state, reason = api.bake_status(obj, reason=True)
+    assert state == "stale" and "topology" in reason
+    api.bake([obj], order=2, samples=32)
+    assert api.bake_status(obj) == "fresh"
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bm.verts.ensure_lookup_table()
+    bmesh.ops.delete(bm, geom=[bm.verts[0]], context="VERTS")
+    bm.to_mesh(obj.data)
+    bm.free()
+    assert api.bake_status(obj) == "stale"
+
+
+def _scene_values(bpy, mesh_io, factor):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    ground, monkey = _monkey_on_ground(bpy, ground_cuts=6)
+    if factor != 1.0:
+        _scale_scene(bpy, factor)
+    from prt_addon import api
+
+    report = api.bake([monkey, ground], order=3, samples=128, seed=7)
+    report.offset = monkey.data["prt_bake"]["offset"]
+    return mesh_io.read_transfer(monkey.data), mesh_io.read_transfer(ground.data), report
+
+
+def test_scene_scale_does_not_change_the_result(empty_scene, bpy_module, mesh_io):
+    bpy = bpy_module
+    ref_m, ref_g, ref = _scene_values(bpy, mesh_io, 1.0)
+    for factor in (1e-3, 1e3):
+        m, g, rep = _scene_values(bpy, mesh_io, factor)
+        assert rep.rays_traced == ref.rays_traced
+        assert rep.offset == pytest.approx(factor * ref.offset, rel=1e-6)  # the offset scales
+        for a, b in ((m, ref_m), (g, ref_g)):
+            diff = np.abs(a - b)
+            # float32 rounding flips a handful of grazing rays at most.
+            assert np.mean(diff) < 1e-5 and np.quantile(diff, 0.999) < 2e-2, (factor, diff.max())
+
+
+def test_bad_inputs_give_clear_reports(empty_scene, bpy_module, bake_ops):
+    bpy = bpy_module
+    from prt_addon import api
+
+    with pytest.raises(ValueError, match="nothing selected"):
+        api.bake([])
+    bpy.ops.object.empty_add()
+    empty = bpy.context.object
+    with pytest.raises(ValueError, match="not a mesh"):
+        api.bake([empty])
+    mesh = bpy.data.meshes.new("points")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0)], [(0, 1)], [])
+    points = bpy.data.objects.new("points", mesh)
+    empty_scene.collection.objects.link(points)
+    with pytest.raises(ValueError, match="has no faces"):
+        api.bake([points])
+    with pytest.raises(ValueError, match="order"):
+        api.bake([points], order=0)
+    bpy.ops.mesh.primitive_cube_add(location=(5, 0, 0))
+    cube = bpy.context.object
+    report = api.bake([cube, empty, points], order=2, samples=16)
+    assert report.objects == [cube.name]
+    assert [name for name, _ in report.skipped] == [empty.name, points.name]
+    assert any("Skipped" in line for line in report.summary_lines())
+    # The operator: empty selection, then a non-mesh only.
+    bpy.ops.object.select_all(action="DESELECT")
+    with pytest.raises(RuntimeError, match="nothing selected"):
+        bpy.ops.prt.bake_transfer()
+    assert "nothing selected" in json.loads(empty_scene.prt_bake.last_report)["message"]
+    empty.select_set(True)
+    with pytest.raises(RuntimeError, match="not a mesh"):
+        bpy.ops.prt.bake_transfer()
+    assert "not a mesh" in json.loads(empty_scene.prt_bake.last_report)["message"]
+
+
+def test_modifiers_deform_is_used_topology_change_is_refused(empty_scene, bpy_module, mesh_io):
+    bpy = bpy_module
+    from prt_addon import api
+
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=6, y_subdivisions=6, size=2)
+    grid = bpy.context.object
+    wave = grid.modifiers.new("Wave", "WAVE")  # moves vertices only: same topology
+    wave.height, wave.width, wave.narrowness = 0.5, 0.5, 0.5
+    report = api.bake([grid], order=2, samples=64)
+    # The flat base mesh cannot shadow itself; the curved one (what the user sees) can.
+    assert report.rays_traced > 0 and report.objects == [grid.name]
+    grid.modifiers.new("Subdivision", "SUBSURF")
+    with pytest.raises(ValueError, match="Apply"):
+        api.bake([grid], order=2, samples=16)
+
+
+def test_lone_convex_object_traces_nothing_and_ground_contact_does(empty_scene, bpy_module):
+    bpy = bpy_module
+    from prt_addon import api
+
+    bpy.ops.mesh.primitive_cube_add(location=(0, 0, 1))
+    cube = bpy.context.object
+    report = api.bake([cube], order=2, samples=64)
+    assert report.rays_traced == 0 and report.backend == "NONE"
+    assert report.points == 24  # flat cube: 8 vertices x 3 face normals
+    assert report.rays_skipped == 64 * report.points
+    assert report.skipped_below_horizon + report.skipped_unoccludable == report.rays_skipped
+    assert cube.data["prt_bake"]["backend"] == "NONE"
+    bpy.ops.mesh.primitive_plane_add(size=10)
+    plane = bpy.context.object
+    report = api.bake([cube, plane], order=2, samples=64)
+    # The 4 corners of the top face see nothing above their tangent plane (the plane is below,
+    # the cube convex), nor do the 4 of the bottom face (it lies on the plane and faces down):
+    # their ~32 rays each above the horizon are skipped; the sides and the plane are traced.
+    assert report.rays_traced > 0 and report.backend in ("EMBREE", "BVHTREE")
+    assert 8 * 28 <= report.skipped_unoccludable <= 8 * 36

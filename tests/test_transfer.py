@@ -1,0 +1,312 @@
+"""Transfer projection (prt_addon.core.transfer) against closed forms; culling; chunking; error
+estimate; Embree occluder. Pure numpy (+ embreex when installed), no bpy."""
+
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from prt_addon.core import analytic, raytrace, sh, transfer
+from prt_addon.core.analytic import _zonal_integral
+from prt_addon.core.directions import make_directions
+from prt_addon.core.rotation import axis_angle_matrix
+
+ORDER = 4
+Y00 = 1.0 / np.sqrt(4.0 * np.pi)
+
+
+class PlaneOccluder:
+    """The infinite plane through `point` with normal `normal` (analytic ray test)."""
+
+    name = "PLANE"
+    max_threads = 2
+
+    def __init__(self, point, normal):
+        self.point = np.asarray(point, float)
+        self.normal = np.asarray(normal, float) / np.linalg.norm(normal)
+
+    def occluded(self, origins, directions):
+        o, d = origins.astype(np.float64), directions.astype(np.float64)
+        denom = d @ self.normal
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = ((self.point - o) @ self.normal) / denom
+        return np.isfinite(t) & (t > 0)
+
+
+class WallOccluder:
+    """A wall in the plane x = d, 0 <= z <= h, infinitely wide in y."""
+
+    name = "WALL"
+    max_threads = 2
+
+    def __init__(self, d, h):
+        self.d, self.h = d, h
+
+    def occluded(self, origins, directions):
+        o, w = origins.astype(np.float64), directions.astype(np.float64)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (self.d - o[:, 0]) / w[:, 0]
+        z = o[:, 2] + t * w[:, 2]
+        return (w[:, 0] > 0) & (t > 0) & (z >= 0) & (z <= self.h)
+
+
+class CupOccluder:
+    """Lower half (z <= 1) of the unit sphere centred at (0, 0, 1): a cup whose bottom is the
+    origin and whose rim is the circle of radius 1 at height 1."""
+
+    name = "CUP"
+    max_threads = 2
+
+    def occluded(self, origins, directions):
+        o, d = origins.astype(np.float64), directions.astype(np.float64)
+        oc = o - np.array([0.0, 0.0, 1.0])
+        b = np.einsum("ij,ij->i", oc, d)
+        c = np.einsum("ij,ij->i", oc, oc) - 1.0
+        disc = b * b - c
+        t = -b + np.sqrt(np.maximum(disc, 0.0))  # the far root: origins are inside the sphere
+        z = o[:, 2] + t * d[:, 2]
+        return (disc > 0) & (t > 0) & (z < 1.0)
+
+
+def cup_coeffs(order, alpha):
+    """Shadowed transfer at the bottom of the cup, normal +Z.
+
+    Seen from the bottom point B of a sphere of radius R, every ray into the sphere meets the
+    sphere again; it leaves the cup only through the rim disk (radius R, height R above B), i.e.
+    inside the cone of half angle alpha = atan(R / R) = 45 degrees about +Z. So
+    T(w) = max(0, cos theta) / pi * [theta < alpha], a zonal function with
+    z_l = 2 pi integral_{cos alpha}^1 (x / pi) Q_l^0(x) dx. In closed form for l = 0, 1:
+    t_0 = sin^2(alpha) / sqrt(4 pi) (the visible cosine-weighted fraction is sin^2 alpha = 1/2)
+    and t_(1,0) = 2 sqrt(3 / (4 pi)) (1 - cos^3 alpha) / 3.
+    """
+    zonal = _zonal_integral(order, np.cos(alpha), 1.0, 1) / np.pi
+    return sh.zonal_to_coeffs(zonal, (0.0, 0.0, 1.0))
+
+
+def wall_visible_fraction(d, h):
+    """Cosine-weighted visible fraction at a horizontal point at distance d from a wall of height h.
+
+    The wall is infinitely wide, so the view factor reduces to 2-D (Hottel's crossed strings):
+    F = (sin b2 - sin b1) / 2 with b the angles from the normal to the wall's bottom (90 deg)
+    and top (atan(d / h)): F = (1 - d / sqrt(d^2 + h^2)) / 2, and the visible fraction is 1 - F.
+    """
+    return 1.0 - 0.5 * (1.0 - d / np.hypot(d, h))
+
+
+def test_plane_vertex_shadowed_equals_unshadowed_equals_clamped_cosine():
+    normal = np.array([0.3, -0.2, 0.9])
+    normal /= np.linalg.norm(normal)
+    dirs = make_directions("FIBONACCI", 4096, 1)
+    point = np.array([[0.5, 0.1, 2.0]])
+    plane = PlaneOccluder(point[0], normal)
+    shadowed = transfer.compute_transfer(point, normal[None], dirs, ORDER, plane, offset=1e-4)
+    unshadowed = transfer.compute_transfer(point, normal[None], dirs, ORDER, None)
+    above = int(np.count_nonzero(dirs.directions @ normal > 0))
+    assert shadowed.stats.rays_traced == above and shadowed.stats.occluded_rays == 0
+    np.testing.assert_array_equal(shadowed.coeffs, unshadowed.coeffs)
+    expected = analytic.clamped_cosine_coeffs(ORDER, normal)
+    np.testing.assert_allclose(shadowed.coeffs[0], expected, atol=2e-5)
+    # The error estimate is an upper bound here (smooth integrand, Fibonacci set).
+    assert np.linalg.norm(shadowed.coeffs[0] - expected) <= shadowed.error[0]
+
+
+def test_wall_matches_closed_form_visible_fraction():
+    d, h = 1.0, 2.0
+    dirs = make_directions("FIBONACCI", 8192, 2)
+    up = np.array([[0.0, 0.0, 1.0]])
+    res = transfer.compute_transfer(np.zeros((1, 3)), up, dirs, ORDER, WallOccluder(d, h), offset=1e-6)
+    expected_t0 = Y00 * wall_visible_fraction(d, h)
+    assert res.coeffs[0, 0] == pytest.approx(expected_t0, abs=5e-4)
+    # Very tall wall: exactly half of the cosine-weighted hemisphere is blocked.
+    tall = transfer.compute_transfer(np.zeros((1, 3)), up, dirs, ORDER, WallOccluder(d, 1e9), offset=1e-6)
+    assert tall.coeffs[0, 0] == pytest.approx(0.5 * Y00, abs=5e-4)
+    # And by symmetry y_(1,-1) (odd in y) vanishes while y_(1,1) (x) is negative (wall at +x).
+    assert abs(tall.coeffs[0, 1]) < 1e-3 and tall.coeffs[0, 3] < -0.1
+
+
+def test_cup_matches_closed_form_coefficients():
+    alpha = np.pi / 4
+    expected = cup_coeffs(ORDER, alpha)
+    assert expected[0] == pytest.approx(np.sin(alpha) ** 2 * Y00, rel=1e-12)
+    assert expected[2] == pytest.approx(2 * np.sqrt(3 / (4 * np.pi)) * (1 - np.cos(alpha) ** 3) / 3, rel=1e-12)
+    dirs = make_directions("FIBONACCI", 8192, 3)
+    res = transfer.compute_transfer(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), dirs, ORDER,
+                                    CupOccluder(), offset=1e-7)
+    np.testing.assert_allclose(res.coeffs[0], expected, atol=1.5e-3)
+    assert np.linalg.norm(res.coeffs[0] - expected) < 3 * res.error[0]
+
+
+@pytest.mark.skipif(not raytrace.EMBREE_AVAILABLE, reason="embreex not installed")
+def test_embree_cup_mesh_matches_closed_form():
+    # A finely tessellated cup: rings of latitude on the lower hemisphere of the unit sphere.
+    rings, segments = 48, 192
+    theta = np.linspace(np.pi, np.pi / 2, rings + 1)[1:]  # from near the bottom to the rim
+    phi = np.linspace(0, 2 * np.pi, segments, endpoint=False)
+    ring_pts = np.stack([
+        np.outer(np.sin(theta), np.cos(phi)), np.outer(np.sin(theta), np.sin(phi)),
+        1.0 + np.outer(np.cos(theta), np.ones_like(phi)),
+    ], axis=-1).reshape(-1, 3)
+    verts = np.vstack([[0.0, 0.0, 0.0], ring_pts])
+    tris = [(0, 1 + (s + 1) % segments, 1 + s) for s in range(segments)]
+    for r in range(rings - 1):
+        a, b = 1 + r * segments, 1 + (r + 1) * segments
+        for s in range(segments):
+            s1 = (s + 1) % segments
+            tris += [(a + s, a + s1, b + s1), (a + s, b + s1, b + s)]
+    occ = raytrace.EmbreeOccluder(verts, np.array(tris))
+    dirs = make_directions("FIBONACCI", 8192, 4)
+    res = transfer.compute_transfer(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), dirs, ORDER, occ,
+                                    offset=1e-4)
+    # The polygonal rim is slightly inside the circle: allow for the tessellation.
+    np.testing.assert_allclose(res.coeffs[0], cup_coeffs(ORDER, np.pi / 4), atol=3e-3)
+
+
+@pytest.mark.parametrize("kind, lo, hi", [("UNIFORM", 0.7, 1.4), ("STRATIFIED", 0.7, 1.5), ("FIBONACCI", 1.0, 2.5)])
+def test_error_estimate_tracks_true_error(kind, lo, hi):
+    """RMS of |t_A - t_B| / 2 over 32 independent direction sets against the RMS true error, on
+    the cup (shadowed): unbiased for i.i.d. and stratified sets, conservative for Fibonacci."""
+    expected = cup_coeffs(ORDER, np.pi / 4)
+    true, est = [], []
+    for seed in range(32):
+        dirs = make_directions(kind, 1024, 100 + seed)
+        res = transfer.compute_transfer(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), dirs, ORDER,
+                                        CupOccluder(), offset=1e-7)
+        true.append(np.linalg.norm(res.coeffs[0] - expected))
+        est.append(res.error[0])
+    ratio = np.sqrt(np.mean(np.square(est)) / np.mean(np.square(true)))
+    assert lo <= ratio <= hi, ratio
+
+
+def test_horizon_culling_and_counts():
+    rng = np.random.default_rng(0)
+    n = rng.normal(size=(300, 3))
+    dirs = make_directions("STRATIFIED", 200, 5)
+    res = transfer.compute_transfer(np.zeros((300, 3)), n, dirs, 3, PlaneOccluder((0, 0, -5), (0, 0, 1)),
+                                    offset=1e-3)
+    above = (n / np.linalg.norm(n, axis=1, keepdims=True)) @ dirs.directions.T > 0
+    s = res.stats
+    assert s.rays_traced == above.sum()
+    assert s.skipped_below_horizon == above.size - above.sum()
+    assert s.rays_traced + s.rays_skipped == s.candidate_rays
+
+
+def test_unoccludable_points_trace_nothing():
+    n = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+    p = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])
+    dirs = make_directions("FIBONACCI", 256, 0)
+    box_below = np.array([[[-1, -1, -1], [1, 1, 0.5]]], dtype=float)
+    res = transfer.compute_transfer(p, n, dirs, 3, PlaneOccluder((0, 0, 0), (0, 0, 1)), offset=1e-4,
+                                    self_occludes=False, other_boxes=box_below)
+    # The point facing up sees nothing above its tangent plane; the one facing down is traced.
+    up = int(np.count_nonzero(dirs.directions[:, 2] > 0))
+    down = int(np.count_nonzero(dirs.directions[:, 2] < 0))
+    assert res.stats.rays_traced == down and res.stats.skipped_unoccludable == up
+    free = transfer.compute_transfer(p, n, dirs, 3, None)
+    np.testing.assert_array_equal(res.coeffs[0], free.coeffs[0])
+
+
+def test_chunks_threads_and_direction_blocks_give_identical_results():
+    rng = np.random.default_rng(1)
+    p = rng.normal(size=(257, 3))
+    n = rng.normal(size=(257, 3))
+    dirs = make_directions("FIBONACCI", 300, 6)
+    occ = CupOccluder()
+    ref = transfer.compute_transfer(p, n, dirs, 4, occ, offset=1e-4, threads=1)
+    for chunk, threads in [(1000, 2), (64, 2), (7, 1), (1 << 22, 2)]:
+        res = transfer.compute_transfer(p, n, dirs, 4, occ, offset=1e-4, chunk_rays=chunk, threads=threads)
+        np.testing.assert_allclose(res.coeffs, ref.coeffs, rtol=0, atol=2e-7)
+        np.testing.assert_allclose(res.error, ref.error, rtol=1e-5, atol=1e-7)
+        assert res.stats.rays_traced == ref.stats.rays_traced
+
+
+def test_zero_normal_gives_zero_transfer():
+    dirs = make_directions("FIBONACCI", 64, 0)
+    res = transfer.compute_transfer(np.zeros((1, 3)), np.zeros((1, 3)), dirs, 3)
+    assert not res.coeffs.any()
+
+
+def test_cancel():
+    dirs = make_directions("FIBONACCI", 64, 0)
+    comp = transfer.TransferComputation(np.zeros((100, 3)), np.ones((100, 3)), dirs, 3, chunk_rays=64 * 10, threads=1)
+    assert comp.step()
+    comp.cancel()
+    with pytest.raises(transfer.Cancelled):
+        comp.step()
+
+
+def _peak_bytes(samples, chunk_rays):
+    rng = np.random.default_rng(2)
+    p = rng.normal(size=(20000, 3))
+    dirs = make_directions("FIBONACCI", samples, 0)
+    dirs.basis(4)
+    tracemalloc.start()
+    comp = transfer.TransferComputation(p, p, dirs, 4, PlaneOccluder((0, 0, -50), (0, 0, 1)), offset=1e-3,
+                                        chunk_rays=chunk_rays, threads=2)
+    base = tracemalloc.get_traced_memory()[0]
+    tracemalloc.reset_peak()
+    comp.run()
+    peak = tracemalloc.get_traced_memory()[1] - base
+    tracemalloc.stop()
+    return peak
+
+
+def test_peak_memory_is_bounded_by_the_chunk_size():
+    chunk = 1 << 16
+    small = _peak_bytes(256, chunk)
+    large = _peak_bytes(2048, chunk)
+    # The analytic occluder itself uses ~100 bytes per ray of float64 temporaries (rays are
+    # about half the candidates); the outputs (20000 x 16 float32 + errors) come on top.
+    bound = chunk * (transfer.RAY_BYTES + 50) + 20000 * 68
+    assert small < bound and large < bound, (small, large, bound)
+    assert large < 1.3 * small  # 8 times the samples, about the same memory
+
+
+def test_local_frame_rotation_and_mirror():
+    order = 4
+    normal = np.array([0.2, 0.5, -0.8])
+    normal /= np.linalg.norm(normal)
+    world = analytic.clamped_cosine_coeffs(order, normal)[None]
+    rot = axis_angle_matrix((1, 2, 3), 0.7)
+    linear = rot @ np.diag([2.0, 2.0, 2.0])
+    local = transfer.to_local_frame(world, linear)
+    np.testing.assert_allclose(local[0], analytic.clamped_cosine_coeffs(order, rot.T @ normal), atol=1e-12)
+    mirror = rot @ np.diag([-1.0, 1.0, 1.0])  # Q = mirror, local direction u maps to world Q u
+    local = transfer.to_local_frame(world, mirror * 3.0)
+    np.testing.assert_allclose(local[0], analytic.clamped_cosine_coeffs(order, mirror.T @ normal), atol=1e-12)
+
+
+def _box(lo=(-1, -1, -1), hi=(1, 1, 1)):
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    v = np.array([[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0],
+                  [x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]], float)
+    quads = [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)]
+    t = [(a, b, c) for a, b, c, d in quads] + [(a, c, d) for a, b, c, d in quads]
+    return v, np.array(t)
+
+
+def test_convexity_and_planarity_tests():
+    v, t = _box()
+    assert raytrace.is_closed_convex(v, t) and raytrace.cannot_self_occlude(v, t)
+    dented = v.copy()
+    dented[6] = [0.2, 0.2, 0.2]  # pull one corner inside
+    assert not raytrace.is_closed_convex(dented, t)
+    assert not raytrace.is_closed_convex(v, t[:-1])  # open
+    assert not raytrace.is_closed_convex(v, t[:, ::-1])  # inside out
+    v2, t2 = _box((3, 3, 3), (4, 4, 4))
+    both_v = np.vstack([v, v2])
+    both_t = np.vstack([t, t2 + 8])
+    assert not raytrace.cannot_self_occlude(both_v, both_t)  # two bodies shadow each other
+    grid = np.array([[x, y, 0.0] for y in range(3) for x in range(3)])
+    gt = np.array([(0, 1, 4), (0, 4, 3), (1, 2, 5), (1, 5, 4), (3, 4, 7), (3, 7, 6), (4, 5, 8), (4, 8, 7)])
+    assert raytrace.is_planar(grid, gt) and raytrace.cannot_self_occlude(grid, gt)
+    bent = grid.copy()
+    bent[8, 2] = 0.5
+    assert not raytrace.cannot_self_occlude(bent, gt)
+
+
+def test_box_can_occlude():
+    boxes = np.array([[[-1, -1, 0], [1, 1, 1]]], float)
+    p = np.array([[0, 0, 2], [0, 0, 2], [3, 0, 0.5]], float)
+    n = np.array([[0, 0, 1], [0, 0, -1], [1, 0, 0]], float)
+    assert raytrace.box_can_occlude(p, n, boxes).tolist() == [False, True, False]
