@@ -61,6 +61,31 @@ def world_lighting(scene=None):
     return _world.current_world_coeffs(bpy.context.scene if scene is None else scene)
 
 
+def shade(obj, scene=None):
+    """Per-element radiance (elements, 3) that the PRT display shader computes for a white
+    surface (albedo excluded): max(sum_i L_i t_i, 0) per channel with the scene's lighting
+    rotated into obj's local frame. One row per vertex for a POINT-domain bake (per face corner
+    for CORNER), the quantity Cycles' DIFFUSE bake with pass_filter={'DIRECT'} writes."""
+    from .blender import display as _display
+
+    return _display.shade(obj, scene)
+
+
+def render_view(scene=None, width=None, height=None, camera=None):
+    """(H, W, 4) float32 linear image of the baked objects drawn with the PRT shader from the
+    scene camera, offscreen, top row first (alpha 0 where nothing is drawn)."""
+    from .blender import offscreen as _offscreen
+
+    return _offscreen.render_view(scene, width, height, camera)
+
+
+def save_png(image, path, scene=None, background=None):
+    """Save an image from render_view as PNG through the scene's colour management."""
+    from .blender import offscreen as _offscreen
+
+    return _offscreen.save_png(image, path, scene, background)
+
+
 def bake(objects, order=4, samples=256, shadows=True, backend="AUTO", direction_set="FIBONACCI",
          seed=0, self_shadow_only=False, progress=None, **options):
     """Bake diffuse SH transfer into mesh objects (docs/bake.md, storage: docs/storage.md).

@@ -8,7 +8,7 @@ and a second register() without unregister() first unregisters what is there.
 
 import bpy
 
-from . import bake_ops, panels, properties, world_ops
+from . import bake_ops, display_ops, panels, properties, world_ops
 
 # Order matters: property groups before the panels and operators that use them.
 MODULES = [
@@ -16,6 +16,7 @@ MODULES = [
     panels,
     world_ops,
     bake_ops,
+    display_ops,
 ]
 
 _registered = []

@@ -1,0 +1,150 @@
+"""Render the camera view with the PRT shader offscreen to a numpy image, and save it as PNG.
+
+`render_view` draws the same batches with the same shader and light buffers as the viewport draw
+handler (display.draw_objects), into an RGBA32F GPUOffScreen with its own depth buffer. It draws
+baked objects only; the background is transparent (alpha 0). The result is linear scene radiance
+times albedo (no exposure, no view transform), row 0 at the top of the picture.
+"""
+
+import bpy
+import gpu
+import numpy as np
+
+from . import display
+
+
+def gpu_ready():
+    """True when the gpu module can draw (in background mode only after initialisation)."""
+    try:
+        gpu.types.GPUOffScreen(4, 4)
+    except Exception:  # "GPU functions for drawing are not available in background mode"
+        return False
+    return True
+
+
+def ensure_gpu():
+    """Initialise the GPU in background mode (REFERENCE.md): gpu.init() where it exists, else
+    one tiny Workbench render of a temporary scene. Returns True when the gpu module can draw."""
+    if gpu_ready():
+        return True
+    init = getattr(gpu, "init", None)
+    if init is not None:
+        init()
+        return gpu_ready()
+    scene = bpy.data.scenes.new("prt_gpu_init")
+    cam_data = bpy.data.cameras.new("prt_gpu_init")
+    cam = bpy.data.objects.new("prt_gpu_init", cam_data)
+    try:
+        scene.collection.objects.link(cam)
+        scene.camera = cam
+        scene.render.engine = "BLENDER_WORKBENCH"
+        scene.render.resolution_x = 8
+        scene.render.resolution_y = 8
+        bpy.ops.render.render(scene=scene.name)
+    finally:
+        bpy.data.objects.remove(cam)
+        bpy.data.cameras.remove(cam_data)
+        bpy.data.scenes.remove(scene)
+    return gpu_ready()
+
+
+def camera_matrices(scene, width, height, camera=None):
+    """(view, projection) 4x4 numpy matrices of the scene camera for a width x height image."""
+    camera = camera or scene.camera
+    if camera is None:
+        raise ValueError("the scene has no camera")
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    render = scene.render
+    projection = camera.calc_matrix_camera(
+        depsgraph, x=width, y=height, scale_x=render.pixel_aspect_x, scale_y=render.pixel_aspect_y
+    )
+    view = camera.matrix_world.inverted()
+    return np.array(view, dtype=np.float64), np.array(projection, dtype=np.float64)
+
+
+def render_size(scene):
+    pct = scene.render.resolution_percentage / 100.0
+    return max(1, int(scene.render.resolution_x * pct)), max(1, int(scene.render.resolution_y * pct))
+
+
+def render_view(scene=None, width=None, height=None, camera=None, objects=None, scale=1.0):
+    """(H, W, 4) float32 linear image of the baked objects seen by the camera, top row first.
+
+    width/height default to the scene's render size; objects default to the visible baked
+    objects of the first view layer; scale multiplies the radiance (e.g. display.exposure_scale).
+    """
+    scene = scene or bpy.context.scene
+    if width is None or height is None:
+        width, height = render_size(scene)
+    if not ensure_gpu():
+        raise RuntimeError("the gpu module cannot draw in this session")
+    view, projection = camera_matrices(scene, width, height, camera)
+    if objects is None:
+        view_layer = bpy.context.view_layer if scene == bpy.context.scene else scene.view_layers[0]
+        objects = display.baked_objects(scene, view_layer)
+    offscreen = gpu.types.GPUOffScreen(width, height, format="RGBA32F")
+    try:
+        with offscreen.bind():
+            fb = gpu.state.active_framebuffer_get()
+            fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
+            gpu.state.depth_test_set("LESS_EQUAL")
+            gpu.state.depth_mask_set(True)
+            try:
+                display.draw_objects(scene, projection @ view, objects, scale=scale)
+            finally:
+                gpu.state.depth_test_set("NONE")
+            buf = fb.read_color(0, 0, width, height, 4, 0, "FLOAT")
+            # The buffer's numpy view has reversed strides (REFERENCE.md): transpose, then reshape.
+            image = np.asarray(buf).T.reshape(height, width, 4).copy()
+    finally:
+        offscreen.free()
+    return image[::-1].copy()
+
+
+def save_png(image, path, scene=None, background=None):
+    """Write an (H, W, 4) linear float image (top row first) as PNG with the scene's colour
+    management (view transform, look, exposure, gamma: Image.save_render).
+
+    background: optional linear RGB composited under the image's alpha.
+    """
+    scene = scene or bpy.context.scene
+    img = np.asarray(image, dtype=np.float32)
+    height, width = img.shape[:2]
+    if background is not None:
+        alpha = img[..., 3:4]
+        rgb = img[..., :3] + (1.0 - alpha) * np.asarray(background, dtype=np.float32)[:3]
+        img = np.concatenate([rgb, np.ones_like(alpha)], axis=-1)
+    target = bpy.data.images.new("prt_save_png", width, height, alpha=True, float_buffer=True)
+    try:
+        target.pixels.foreach_set(np.ascontiguousarray(img[::-1]).reshape(-1))
+        settings = scene.render.image_settings
+        old = (settings.file_format, settings.color_mode, settings.color_depth)
+        settings.file_format = "PNG"
+        settings.color_mode = "RGBA"
+        settings.color_depth = "8"
+        try:
+            target.save_render(path, scene=scene)
+        finally:
+            settings.file_format, settings.color_mode, settings.color_depth = old
+    finally:
+        bpy.data.images.remove(target)
+    return path
+
+
+def render_rotations(scene, angles_deg, path_pattern, width=None, height=None, background=None):
+    """Render the PRT view at several lighting rotations about Z (through the world's Mapping
+    node, as the sidebar does) and save each as PNG; path_pattern gets the angle ("{:03d}").
+    The Mapping rotation is restored afterwards. Returns the list of paths."""
+    old = display.mapping_rotation_euler(scene.world)
+    paths = []
+    try:
+        for angle in angles_deg:
+            rot = (old[0], old[1], np.radians(angle))
+            if not display.set_mapping_rotation_euler(scene.world, rot):
+                raise ValueError("the world has no Environment Texture to rotate")
+            image = render_view(scene, width, height)
+            paths.append(save_png(image, path_pattern.format(int(round(angle))), scene, background))
+    finally:
+        if display.find_mapping_node(scene.world) is not None:
+            display.set_mapping_rotation_euler(scene.world, old)
+    return paths
