@@ -1,87 +1,191 @@
-"""Main job: project a bundled Blender HDRI into SH and report coefficients, error and timing.
+"""Main job: the bundled demo scene, projected, baked and shown through the PRT shader.
 
-Run through `bash scripts/demo.sh [--hdri forest] [--orders 2,3,4,6,8,12,16]`.
-Errors are against the full-resolution image itself:
-* radiance: relative RMS (solid-angle weighted) of the order-n reconstruction of the image;
-* diffuse:  relative RMS of the unshadowed diffuse radiance E/pi = integral L max(0, n.w)/pi dw
-  over 1024 Fibonacci normals, SH (order n) against a brute-force sum over every pixel.
-The diffuse error is what unshadowed PRT shading sees; it falls much faster than the radiance
-error because the clamped cosine's coefficients decay as l^-5/2.
+    bash scripts/demo.sh [--hdri forest] [--order 8] [--samples 256] [--output out]
+
+1. Projects a bundled Blender HDRI into SH at several orders and prints the reconstruction error
+   of the radiance and of unshadowed diffuse shading (against a brute-force sum over every pixel)
+   with the projection time, and the RGB coefficients at order 3.
+2. Builds the default scene (Suzanne, subdivided and smooth, on a ground plane, a camera, the HDRI
+   as the world behind a Mapping node), runs Project World and Bake as a user would
+   (prt.project_world, prt.bake_transfer), prints the bake report, renders the PRT view offscreen
+   at lighting rotations of 0, 120 and 240 degrees about Z, and writes the PNGs and the .blend.
 """
 
 import argparse
+import json
 import os
 import sys
 import time
+import warnings
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
 
 from prt_addon.core import analytic, directions, projection, sh  # noqa: E402
 
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
-def load_bundled_hdri(name):
+
+def bundled_hdri_path(name):
     import bpy
 
-    folder = bpy.utils.system_resource("DATAFILES", path="studiolights/world")
-    path = os.path.join(folder, f"{name}.exr")
-    image = bpy.data.images.load(path, check_existing=True)
+    path = os.path.join(bpy.utils.system_resource("DATAFILES", path="studiolights/world"), f"{name}.exr")
+    if not os.path.isfile(path):
+        raise SystemExit(f"no bundled HDRI named {name!r} (try forest, city, courtyard, sunrise)")
+    return path
+
+
+def read_pixels(image):
     width, height = image.size
     pixels = np.empty(width * height * image.channels, np.float32)
     image.pixels.foreach_get(pixels)
-    return path, pixels.reshape(height, width, image.channels)
+    return pixels.reshape(height, width, image.channels)
 
 
 def relative_rms(approx, exact, weights):
     return float(np.sqrt(np.sum(weights * (approx - exact) ** 2) / np.sum(weights * exact**2)))
 
 
-def luminance(rgb):
-    return rgb @ np.array([0.2126, 0.7152, 0.0722])
+def projection_table(pixels, orders):
+    height, width = pixels.shape[:2]
+    rgb = pixels[:, :, :3].astype(np.float64)
+    dirs = projection.pixel_directions(height, width).reshape(-1, 3)
+    weights = np.repeat(projection.pixel_solid_angles(height, width), width)
+    image_lum = rgb.reshape(-1, 3) @ LUMINANCE
+    normals = directions.fibonacci_directions(1024)
+    # Brute-force diffuse truth: every pixel a small light of its solid angle.
+    cosines = np.maximum(0.0, normals.astype(np.float32) @ dirs.T.astype(np.float32))
+    truth = (cosines @ (rgb.reshape(-1, 3) * weights[:, None]).astype(np.float32)) @ LUMINANCE / np.pi
+    print(f"{'order':>5} {'coeffs':>6} {'project ms':>10} {'radiance err':>12} {'diffuse err':>11}")
+    coeffs_by_order = {}
+    for order in orders:
+        start = time.perf_counter()
+        coeffs, report = projection.project_equirect(pixels, order)
+        seconds = time.perf_counter() - start
+        radiance_error = relative_rms(sh.evaluate(coeffs, dirs) @ LUMINANCE, image_lum, weights)
+        diffuse = sh.evaluate(sh.convolve_zonal(coeffs, analytic.clamped_cosine_zonal(order)), normals) @ LUMINANCE
+        diffuse_error = relative_rms(diffuse, truth, np.ones_like(diffuse))
+        print(f"{order:>5} {order * order:>6} {seconds * 1e3:>10.1f} {radiance_error:>11.1%} {diffuse_error:>10.2%}")
+        coeffs_by_order[order] = coeffs
+    print(f"pixel check: {report.summary()}")
+    print("(radiance err is the square root of the energy beyond the order, by Parseval: a sun keeps it")
+    print(" high; diffuse err is what unshadowed diffuse shading sees)")
+    return coeffs_by_order
+
+
+def build_scene(hdri_path):
+    """Suzanne (subdivided twice, smooth) on a 6x6 ground grid, a camera, the HDRI world."""
+    import bpy
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_monkey_add(size=2.0, location=(0.0, 0.0, 0.75), rotation=(-0.35, 0.0, 0.5))
+    suzanne = bpy.context.active_object
+    suzanne.name = "Suzanne"
+    modifier = suzanne.modifiers.new("Subdivision", "SUBSURF")
+    modifier.levels = 2
+    bpy.ops.object.modifier_apply(modifier=modifier.name)
+    bpy.ops.object.shade_smooth()
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=60, y_subdivisions=60, size=6.0, location=(0.0, 0.0, 0.0))
+    bpy.context.active_object.name = "Ground"
+
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    scene.collection.objects.link(camera)
+    camera.location = (4.6, -5.4, 3.6)
+    direction = -np.array(camera.location) + np.array([0.0, 0.0, 0.9])
+    camera.rotation_euler = (np.arctan2(np.hypot(direction[0], direction[1]), -direction[2]), 0.0,
+                             np.arctan2(direction[1], direction[0]) - np.pi / 2)
+    scene.camera = camera
+    scene.render.resolution_x, scene.render.resolution_y = 480, 360
+
+    world = bpy.data.worlds.new("HDRI")
+    with warnings.catch_warnings():  # Blender 5.0 deprecates use_nodes; 4.2 needs it
+        warnings.simplefilter("ignore", DeprecationWarning)
+        world.use_nodes = True
+    nodes, links = world.node_tree.nodes, world.node_tree.links
+    environment = nodes.new("ShaderNodeTexEnvironment")
+    environment.image = bpy.data.images.load(hdri_path, check_existing=True)
+    coords = nodes.new("ShaderNodeTexCoord")
+    mapping = nodes.new("ShaderNodeMapping")
+    links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+    links.new(mapping.outputs["Vector"], environment.inputs["Vector"])
+    links.new(environment.outputs["Color"], nodes["Background"].inputs["Color"])
+    scene.world = world
+    scene.view_settings.view_transform = "Standard"  # the viewport overlay matches Standard (docs/display.md)
+    scene.view_settings.exposure = -1.0
+    return scene
+
+
+def run_scene(args):
+    import bpy
+
+    import prt_addon
+    from prt_addon import api
+    from prt_addon.blender import offscreen
+
+    offscreen.ensure_gpu()  # before building large meshes: it renders a scene (REFERENCE.md)
+    prt_addon.register()
+    scene = build_scene(bundled_hdri_path(args.hdri))
+
+    scene.prt_world.order = args.order
+    result = bpy.ops.prt.project_world()
+    print(f"\nprt.project_world: {result.pop()}; {scene.prt_world.seconds * 1e3:.0f} ms, order {scene.prt_world.order}")
+
+    for obj in scene.objects:
+        obj.select_set(obj.type == "MESH")
+    bpy.context.view_layer.objects.active = scene.objects["Suzanne"]
+    settings = scene.prt_bake
+    settings.order, settings.samples, settings.shadows = args.order, args.samples, True
+    result = bpy.ops.prt.bake_transfer()
+    print(f"prt.bake_transfer: {result.pop()}; bake report:")
+    report = json.loads(settings.last_report)
+    print(f"  {len(report['objects'])} objects, {report['points']:,} points, order {report['order']}, "
+          f"{report['samples']} {report['direction_set'].lower()} directions, backend {report['backend']}")
+    print(f"  {report['seconds']:.2f} s, {report['rays_traced']:,} rays traced "
+          f"({report['rays_traced'] / max(report['seconds'], 1e-9) / 1e6:.1f} Mrays/s), {report['rays_skipped']:,} skipped "
+          f"({report['skipped_below_horizon']:,} below the horizon, {report['skipped_unoccludable']:,} where nothing can occlude)")
+    print(f"  Monte-Carlo error estimate {report['error_estimate']:.2e} RMS per coefficient "
+          f"({report['error_estimate_relative']:.1%} of the transfer vector's norm)")
+
+    os.makedirs(args.output, exist_ok=True)
+    radiance = api.shade(scene.objects["Suzanne"])
+    print(f"Suzanne radiance (white albedo): min {radiance.min():.3f}, mean {radiance.mean():.3f}, max {radiance.max():.3f}")
+    pattern = os.path.join(args.output, "prt_rotation_{:03d}.png")
+    start = time.perf_counter()
+    paths = offscreen.render_rotations(scene, [0, 120, 240], pattern)
+    print(f"rendered {len(paths)} views through the PRT shader in {time.perf_counter() - start:.2f} s:")
+    for path in paths:
+        print("  " + os.path.relpath(path, ROOT))
+    blend = os.path.join(args.output, "prt_demo.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend)
+    print("  " + os.path.relpath(blend, ROOT))
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--hdri", default="forest", help="bundled studio-light HDRI name")
-    parser.add_argument("--orders", default="2,3,4,6,8,12,16")
-    parser.add_argument("--print-order", type=int, default=3, help="order whose coefficients are printed")
+    parser.add_argument("--orders", default="2,3,4,6,8,12,16", help="orders of the projection table")
+    parser.add_argument("--order", type=int, default=8, help="order of the demo scene's bake")
+    parser.add_argument("--samples", type=int, default=256, help="directions of the demo scene's bake")
+    parser.add_argument("--output", default=os.path.join(ROOT, "out"), help="folder for the PNGs and the .blend")
     args = parser.parse_args(argv)
-    orders = [int(o) for o in args.orders.split(",")]
 
-    path, pixels = load_bundled_hdri(args.hdri)
-    height, width = pixels.shape[:2]
-    rgb = pixels[:, :, :3].astype(np.float64)
-    print(f"HDRI {path}: {width}x{height}, peak {rgb.max():.4g}, mean {rgb.mean():.4g}")
+    import bpy
 
-    dirs = projection.pixel_directions(height, width).reshape(-1, 3)
-    weights = np.repeat(projection.pixel_solid_angles(height, width), width)
-    image_lum = luminance(rgb.reshape(-1, 3))
-
-    normals = directions.fibonacci_directions(1024)
-    # Brute-force diffuse truth: every pixel as a small light of its solid angle.
-    cosines = np.maximum(0.0, normals.astype(np.float32) @ dirs.T.astype(np.float32))
-    diffuse_truth = luminance((cosines @ (rgb.reshape(-1, 3) * weights[:, None]).astype(np.float32)) / np.pi)
-
-    print(f"\n{'order':>5} {'coeffs':>6} {'project ms':>10} {'radiance err':>12} {'diffuse err':>11}")
-    printed = None
-    for order in orders:
-        start = time.perf_counter()
-        coeffs, report = projection.project_equirect(pixels, order)
-        seconds = time.perf_counter() - start
-        recon = luminance(sh.evaluate(coeffs, dirs))
-        radiance_error = relative_rms(recon, image_lum, weights)
-        diffuse = luminance(sh.evaluate(sh.convolve_zonal(coeffs, analytic.clamped_cosine_zonal(order)), normals))
-        diffuse_error = relative_rms(diffuse, diffuse_truth, np.ones_like(diffuse))
-        print(f"{order:>5} {order * order:>6} {seconds * 1e3:>10.1f} {radiance_error:>11.1%} {diffuse_error:>10.2%}")
-        if order == args.print_order:
-            printed = coeffs
-    print(f"\npixel check: {report.summary()}")
-    if printed is not None:
-        print(f"\nRGB coefficients at order {args.print_order} (index i = l(l+1)+m, no Condon-Shortley phase, Z up):")
-        for i, (r, g, b) in enumerate(printed):
+    path = bundled_hdri_path(args.hdri)
+    image = bpy.data.images.load(path, check_existing=True)
+    pixels = read_pixels(image)
+    print(f"HDRI {os.path.basename(path)}: {image.size[0]}x{image.size[1]}, peak {pixels[..., :3].max():.4g}, "
+          f"mean {pixels[..., :3].mean():.4g}\n")
+    coeffs = projection_table(pixels, [int(o) for o in args.orders.split(",")])
+    if 3 in coeffs:
+        print("\nRGB coefficients at order 3 (index i = l(l+1)+m, no Condon-Shortley phase, Z up):")
+        for i, (r, g, b) in enumerate(coeffs[3]):
             l = int(np.sqrt(i))
-            print(f"  i={i:<3} l={l} m={i - l * (l + 1):>2}: {r:12.6f} {g:12.6f} {b:12.6f}")
+            print(f"  i={i} l={l} m={i - l * (l + 1):>2}: {r:10.5f} {g:10.5f} {b:10.5f}")
+    run_scene(args)
     return 0
 
 
