@@ -93,6 +93,7 @@ class WorldProjection:
     source: WorldSource
     seconds: float = 0.0
     truncation: float = 0.0
+    diffuse_truncation: float = 0.0
     source_size: tuple = (0, 0)  # image (width, height) read or rendered
     projected_size: tuple = (0, 0)  # after reduction
     warnings: list = field(default_factory=list)
@@ -356,12 +357,15 @@ def render_world(scene, height):
 
 
 def project_pixels(pixels, order):
-    """(coeffs, report, energy, projected (w, h)) of an equirect image reduced to what order needs."""
+    """(coeffs, report, energy, projected (w, h), diffuse truncation) of an equirect image reduced
+    to what order needs. It is projected once at max(order, 32): the first order**2 coefficients
+    are the same, and the higher bands measure what diffuse shading loses beyond the order."""
     height, width = pixels.shape[:2]
     h_out, w_out = resample.target_size(height, width, order)
     reduced, report, energy = resample.reduce_equirect(pixels, h_out, w_out)
-    coeffs, _ = projection.project_equirect(reduced, order)
-    return coeffs, report, energy, (w_out, h_out)
+    reference, _ = projection.project_equirect(reduced, max(order, resample.DIFFUSE_REFERENCE_ORDER))
+    diffuse_truncation = resample.diffuse_truncation_fraction(reference, order)
+    return reference[: order * order].copy(), report, energy, (w_out, h_out), diffuse_truncation
 
 
 # --- the projection ---------------------------------------------------------------------------
@@ -384,7 +388,7 @@ def project(scene, order, force_render=False):
             pixels = read_image_pixels(source.image)
         except _NeedsRender as why:
             source = _render_source(scene.world, None, str(why))
-    truncation = 0.0
+    truncation = diffuse_truncation = 0.0
     source_size = projected_size = (0, 0)
     if source.kind == "COLOR":
         color = np.asarray(source.color, dtype=np.float64) * source.strength
@@ -400,7 +404,7 @@ def project(scene, order, force_render=False):
             notes.append(f"world rendered with Cycles because {source.reason}")
             pixels = render_world(scene, resample.needed_height(order))
         source_size = (pixels.shape[1], pixels.shape[0])
-        image_coeffs, report, energy, projected_size = project_pixels(pixels, order)
+        image_coeffs, report, energy, projected_size, diffuse_truncation = project_pixels(pixels, order)
         del pixels
         if report.repaired:
             notes.append(f"image pixels repaired: {report.summary()}")
@@ -420,6 +424,7 @@ def project(scene, order, force_render=False):
         source=source,
         seconds=time.perf_counter() - start,
         truncation=truncation,
+        diffuse_truncation=diffuse_truncation,
         source_size=source_size,
         projected_size=projected_size,
         warnings=notes,
@@ -445,6 +450,7 @@ def store(scene, result):
     settings.rotation_matrix = result.rotation.ravel().tolist()
     settings.seconds = result.seconds
     settings.truncation = result.truncation
+    settings.diffuse_truncation = result.diffuse_truncation
     settings.message = "; ".join(result.warnings)
     settings.token = uuid.uuid4().hex
 

@@ -40,6 +40,11 @@ class PRT_PG_world(bpy.types.PropertyGroup):
         description="Fraction of the L2 luminance energy of the world beyond the stored order",
         subtype="FACTOR",
     )
+    diffuse_truncation: bpy.props.FloatProperty(
+        name="Diffuse Truncation",
+        description="Fraction of the L2 luminance energy of unshadowed diffuse shading beyond the stored order",
+        subtype="FACTOR",
+    )
     message: bpy.props.StringProperty(name="Notes")
     token: bpy.props.StringProperty(name="Token", description="Changes at every projection")
 
@@ -71,7 +76,8 @@ class PRT_OT_project_world(bpy.types.Operator):
         self.report(
             {"INFO"},
             f"World projected at order {result.order} from {result.source.kind.lower()} in "
-            f"{result.seconds:.2f} s; {100.0 * result.truncation:.1f} % of the energy beyond the order",
+            f"{result.seconds:.2f} s; beyond the order: {100.0 * result.truncation:.1f} % of the radiance energy, "
+            f"{100.0 * result.diffuse_truncation:.2f} % of the diffuse shading energy",
         )
         return {"FINISHED"}
 
@@ -99,7 +105,8 @@ class VIEW3D_PT_prt_world(bpy.types.Panel):
             col.label(text=f"{settings.image_name} ({w}x{h})")
         if settings.mapping_node:
             col.label(text=f"Rotated by {settings.mapping_node} ({settings.mapping_type.lower()})")
-        col.label(text=f"{settings.seconds:.2f} s, truncation {100.0 * settings.truncation:.1f} %")
+        col.label(text=f"{settings.seconds:.2f} s, beyond the order: radiance {100.0 * settings.truncation:.1f} %, "
+                  f"diffuse {100.0 * settings.diffuse_truncation:.2f} %")
         if settings.message:
             col.label(text=settings.message, icon="ERROR")
 

@@ -134,3 +134,23 @@ def truncation_fraction(coeffs, energy):
         return 0.0
     lum = np.asarray(coeffs, dtype=np.float64) @ LUMINANCE
     return float(np.clip(1.0 - float(lum @ lum) / energy, 0.0, 1.0))
+
+
+# Bands beyond 32 hold < 1e-6 of the energy of any diffuse (clamped-cosine) convolution: its
+# kernel's zonal coefficients fall as l^-5/2, so their squares as l^-5.
+DIFFUSE_REFERENCE_ORDER = 32
+
+
+def diffuse_truncation_fraction(reference_coeffs, order):
+    """Fraction of the L2 luminance energy of the diffuse shading E/pi (the lighting convolved with
+    max(0, cos)/pi, Funk-Hecke) that lies beyond `order`, from coefficients of a higher order."""
+    from .analytic import clamped_cosine_zonal
+    from .sh import convolve_zonal, order_of
+
+    reference_order = order_of(len(reference_coeffs))
+    diffuse = convolve_zonal(reference_coeffs, clamped_cosine_zonal(reference_order)) @ LUMINANCE
+    total = float(diffuse @ diffuse)
+    if total <= 0.0:
+        return 0.0
+    kept = float(diffuse[: order * order] @ diffuse[: order * order])
+    return float(np.clip(1.0 - kept / total, 0.0, 1.0))
