@@ -77,7 +77,7 @@ class PRT_OT_project_world(bpy.types.Operator):
             {"INFO"},
             f"World projected at order {result.order} from {result.source.kind.lower()} in "
             f"{result.seconds:.2f} s; beyond the order: {100.0 * result.truncation:.1f} % of the radiance energy, "
-            f"{100.0 * result.diffuse_truncation:.2f} % of the diffuse shading energy",
+            f"{100.0 * result.diffuse_truncation:.2g} % of the diffuse shading energy",
         )
         return {"FINISHED"}
 
@@ -106,7 +106,7 @@ class VIEW3D_PT_prt_world(bpy.types.Panel):
         if settings.mapping_node:
             col.label(text=f"Rotated by {settings.mapping_node} ({settings.mapping_type.lower()})")
         col.label(text=f"{settings.seconds:.2f} s, beyond the order: radiance {100.0 * settings.truncation:.1f} %, "
-                  f"diffuse {100.0 * settings.diffuse_truncation:.2f} %")
+                  f"diffuse {100.0 * settings.diffuse_truncation:.2g} %")
         if settings.message:
             col.label(text=settings.message, icon="ERROR")
 
