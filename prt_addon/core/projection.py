@@ -103,7 +103,8 @@ def as_rgb_image(pixels):
     return pixels[:, :, :3]
 
 
-def _sanitized_block(block, report):
+def sanitize(block, report):
+    """float64 copy of an RGB block with NaN/Inf set to 0 and negatives clamped, counted in report."""
     block = block.astype(np.float64)
     nan = np.isnan(block)
     inf = np.isinf(block)
@@ -153,7 +154,7 @@ def project_equirect(pixels, order):
     row_cos = np.empty((height, 3, order))
     row_sin = np.empty((height, 3, order))
     for start in range(0, height, ROW_BLOCK):
-        block = _sanitized_block(rgb[start : start + ROW_BLOCK], report).transpose(0, 2, 1)
+        block = sanitize(rgb[start : start + ROW_BLOCK], report).transpose(0, 2, 1)
         row_cos[start : start + ROW_BLOCK] = block @ cos_table
         row_sin[start : start + ROW_BLOCK] = block @ sin_table
 

@@ -18,7 +18,7 @@ so one bad pixel cannot poison a reduced pixel.
 
 import numpy as np
 
-from .projection import PixelReport, as_rgb_image, row_elevations
+from .projection import PixelReport, as_rgb_image, row_elevations, sanitize
 
 ROW_BLOCK = 64
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec.709 / scene-linear luminance weights
@@ -75,20 +75,6 @@ def row_matrix(height, height_out):
     src[0], src[-1], dst[0], dst[-1] = -1.0, 1.0, -1.0, 1.0
     a = _interval_overlaps(src, dst)
     return a / a.sum(axis=1, keepdims=True)
-
-
-def sanitize(block, report):
-    """float64 copy of an RGB block with NaN/Inf set to 0 and negatives clamped (counted)."""
-    block = np.array(block, dtype=np.float64)
-    nan = np.isnan(block)
-    inf = np.isinf(block)
-    report.nan += int(nan.sum())
-    report.inf += int(inf.sum())
-    block[nan | inf] = 0.0
-    negative = block < 0.0
-    report.negative += int(negative.sum())
-    block[negative] = 0.0
-    return block
 
 
 def reduce_equirect(pixels, height_out, width_out):
