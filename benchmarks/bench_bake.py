@@ -3,11 +3,12 @@
     .venv/bin/python benchmarks/bench_bake.py            # full run (about 2 minutes)
     .venv/bin/python benchmarks/bench_bake.py --quick    # smaller scene
 
-Prints, on one scene and the same rays:
-* the bake's throughput (rays traced / wall time of the whole api.bake call, and of the
-  compute phase alone),
-* raw embreex occlusion throughput on exactly those rays with the same number of threads (each
-  thread one run() call on its half), and the ratio bake / raw (target >= 0.85),
+Prints, on one scene and the same rays (the bake's own batches from iter_rays(); definitions in
+docs/bake.md, "Throughput"), as medians [min - max] of interleaved repeats:
+* the bake's throughput: whole api.bake call, and its compute phase (BVH build, tracing, projection),
+* raw embreex on exactly those rays with 2 threads: R (the bake's batches, prebuilt scene), RB
+  (BVH build + R), and one run() per thread; the ratios raw time / bake time per repeat, in wall
+  and in process CPU time (target: compute / RB >= 0.85),
 * the BVHTree fallback's throughput (a bake with backend='BVHTREE' at fewer samples),
 * peak memory (VmHWM) of a bake of a 1M-vertex mesh, measured in a fresh subprocess, at two
   sample counts to show that it does not grow with them.
@@ -29,7 +30,7 @@ import numpy as np  # noqa: E402
 import prt_addon  # noqa: E402
 from prt_addon import api  # noqa: E402
 from prt_addon.blender import bake_ops  # noqa: E402
-from prt_addon.core import raytrace  # noqa: E402
+from prt_addon.core import raytrace, transfer  # noqa: E402
 
 
 def vm_kib(field):
@@ -94,45 +95,81 @@ def raw_embree_seconds(occ, origins, dirs, threads):
     return time.perf_counter() - t0
 
 
+def raw_build_and_batches_seconds(vertices, triangles, batches, threads):
+    """A fresh EmbreeOccluder (BVH build) and then the bake's batches, as the bake does it."""
+    t0 = time.perf_counter()
+    occ = raytrace.EmbreeOccluder(vertices, triangles)
+    return time.perf_counter() - t0 + raw_batches_seconds(occ, batches, threads)
+
+
+def cpu_seconds(fn, *args, **kwargs):
+    """(result, CPU seconds of this process) of fn(...): less sensitive to other jobs."""
+    c0 = time.process_time()
+    out = fn(*args, **kwargs)
+    return out, time.process_time() - c0
+
+
+def timed(fn, *args):
+    """(result, wall seconds, CPU seconds of this process)."""
+    w0, c0 = time.perf_counter(), time.process_time()
+    out = fn(*args)
+    return out, time.perf_counter() - w0, time.process_time() - c0
+
+
+def bake_phases(objects, samples):
+    """api.bake's steps (bake_ops.bake: BakeJob(...).run()) timed separately: extraction and
+    checks (creating the job), compute (BVH build, tracing, projection), writing."""
+    settings = bake_ops.BakeSettings(order=4, samples=samples, backend="EMBREE", threads=2)
+    job, w_prep, c_prep = timed(bake_ops.BakeJob, objects, settings)
+    _, w_comp, c_comp = timed(lambda: [None for _ in job.steps()])
+    report, w_write, c_write = timed(job.finish)
+    return report, (w_prep + w_comp + w_write, w_comp, c_prep + c_comp + c_write, c_comp)
+
+
+def spread(values):
+    v = np.asarray(values)
+    return f"median {np.median(v):.3f} [{v.min():.3f} - {v.max():.3f}]"
+
+
 def throughput(args):
     prt_addon.register()
     objects = build_scene(args.subdiv, args.grid)
     points = sum(len(o.data.vertices) for o in objects)
     print(f"scene: Suzanne subdivided {args.subdiv}x + ground grid {args.grid}^2: {points:,} vertices, "
-          f"{args.samples} Fibonacci directions, order 4, 2 threads")
+          f"{args.samples} Fibonacci directions, order 4, 2 threads, chunk_rays {transfer.CHUNK_RAYS:,}")
     if not raytrace.EMBREE_AVAILABLE:
         print("embreex not available: skipping the Embree figures")
     else:
         api.bake(objects, order=4, samples=64)  # warm-up (imports, first-use costs)
         vertices, triangles, origins, dirs, batches = same_rays(objects, args.samples)
         occ = raytrace.EmbreeOccluder(vertices, triangles)
-        # Interleaved repeats, best of each: the machine is shared and noisy.
-        bake_best = compute_best = raw_seconds = raw_batch_seconds = float("inf")
+        # Interleaved repeats (the machine is shared and noisy): medians, ratios per repeat.
+        rows = []
         for _ in range(args.repeats):
-            report = api.bake(objects, order=4, samples=args.samples, backend="EMBREE", threads=2)
-            compute = sum(o.data["prt_bake"]["seconds"] for o in objects)
-            bake_best = min(bake_best, report.seconds)
-            compute_best = min(compute_best, compute)
-            raw_seconds = min(raw_seconds, raw_embree_seconds(occ, origins, dirs, 2))
-            raw_batch_seconds = min(raw_batch_seconds, raw_batches_seconds(occ, batches, 2))
-        n_raw = len(origins)
+            report, (bake_s, compute_s, bake_cpu, compute_cpu) = bake_phases(objects, args.samples)
+            whole = raw_embree_seconds(occ, origins, dirs, 2)
+            batched, batched_cpu = cpu_seconds(raw_batches_seconds, occ, batches, 2)
+            built, built_cpu = cpu_seconds(raw_build_and_batches_seconds, vertices, triangles, batches, 2)
+            rows.append((bake_s, compute_s, whole, batched, built, bake_cpu, compute_cpu, built_cpu))
+        bake_s, compute_s, whole_s, batched_s, built_s, bake_cpu, compute_cpu, built_cpu = np.array(rows).T
         rays = report.rays_traced
-        assert n_raw == rays, (n_raw, rays)
-        bake_rate = rays / bake_best
-        compute_rate = rays / compute_best
-        raw_whole = rays / raw_seconds
-        raw_batched = rays / raw_batch_seconds
-        raw_rate = max(raw_whole, raw_batched)
+        assert len(origins) == rays, (len(origins), rays)
+        m = lambda x: rays / np.median(x) / 1e6  # noqa: E731 - Mrays/s at the median time
         print(f"rays traced {rays:,}, skipped {report.rays_skipped:,} "
               f"(below horizon {report.skipped_below_horizon:,}, nothing to occlude "
-              f"{report.skipped_unoccludable:,})")
-        print(f"bake (whole api.bake call)   {bake_best:7.3f} s  {bake_rate / 1e6:6.2f} Mrays/s")
-        print(f"bake (compute phase only)    {compute_best:7.3f} s  {compute_rate / 1e6:6.2f} Mrays/s"
-              "  (tracing + projection, BVH build included)")
-        print(f"raw embreex, 2 threads, one run() per thread  {raw_seconds:7.3f} s  {raw_whole / 1e6:6.2f} Mrays/s")
-        print(f"raw embreex, 2 threads, the bake's batches    {raw_batch_seconds:7.3f} s  {raw_batched / 1e6:6.2f} Mrays/s")
-        print(f"ratio bake / best raw: whole call {bake_rate / raw_rate:.3f}, compute phase "
-              f"{compute_rate / raw_rate:.3f}  (target >= 0.85)")
+              f"{report.skipped_unoccludable:,}); {len(batches)} batches of ~{rays // len(batches):,} rays")
+        print(f"{args.repeats} interleaved repeats; wall seconds as median [min - max]:")
+        print(f"  bake, whole api.bake call                  {spread(bake_s)}  {m(bake_s):6.2f} Mrays/s")
+        print(f"  bake, compute (BVH build+trace+projection) {spread(compute_s)}  {m(compute_s):6.2f} Mrays/s")
+        print(f"  raw embreex, one run() per thread          {spread(whole_s)}  {m(whole_s):6.2f} Mrays/s")
+        print(f"  raw embreex, the bake's batches        R   {spread(batched_s)}  {m(batched_s):6.2f} Mrays/s")
+        print(f"  raw embreex, BVH build + batches       RB  {spread(built_s)}  {m(built_s):6.2f} Mrays/s")
+        print("ratios per repeat (raw time / bake time), median [min - max]; target >= 0.85:")
+        print(f"  compute / RB (both build the BVH)   wall {spread(built_s / compute_s)}   "
+              f"CPU {spread(built_cpu / compute_cpu)}")
+        print(f"  compute / R  (only the bake builds) wall {spread(batched_s / compute_s)}")
+        print(f"  whole call / RB (+ extraction, writing) wall {spread(built_s / bake_s)}   "
+              f"CPU {spread(built_cpu / bake_cpu)}")
         print(f"error estimate {report.error_estimate:.2e} ({100 * report.error_estimate_relative:.2f} % of |t|)")
     bvh_samples = max(16, args.samples // 8)
     report = api.bake(objects, order=4, samples=bvh_samples, backend="BVHTREE")
@@ -183,7 +220,7 @@ def main():
     parser.add_argument("--memory-child", type=int, default=0)
     parser.add_argument("--side", type=int, default=1000)
     parser.add_argument("--no-memory", action="store_true")
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
     if args.memory_child:
         memory_child(args.memory_child, args.side)

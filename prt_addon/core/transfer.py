@@ -27,17 +27,20 @@ ratio. The per-point figure is the L2 norm over the coefficients.
 
 Memory: points are processed in slices of at most chunk_rays / threads candidate (point,
 direction) pairs per thread. Each pair costs about RAY_BYTES of buffers, so the working set is
-about chunk_rays * RAY_BYTES (25 MB at the default 2^18), independent of the sample count and of
+about chunk_rays * RAY_BYTES (21 MB at the default 2^18), independent of the sample count and of
 the mesh size; the outputs (P x n^2 float32 plus P error values) come on top. When one point
 alone has more directions than a slice holds, its directions are processed in blocks.
 
-Threads: each chunk is split between `threads` worker threads that build their rays, trace them
-and project them; Embree and numpy release the GIL, so two threads use both cores.
+Threads: `threads` worker threads each take whole slices (build the rays, trace them, project
+them); Embree and numpy release the GIL, so two threads use both cores. Slices are queued ahead of
+the one step() collects, so no worker waits for another at chunk boundaries.
 """
 
 import threading
 import time
+from collections import deque
 from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import wait as futures_wait
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -48,12 +51,12 @@ from .raytrace import box_can_occlude
 
 CHUNK_RAYS = 1 << 18
 SLICES_PER_THREAD = 4  # slices per step() and thread
-# Working memory per candidate ray (one point-direction pair of a slice), per-thread buffers
-# reused across slices: weight f64 (8), horizon mask (1), flat and point indices (16), origin and
-# direction f32 (24), the flat iota and row-index tables (16), the tiled directions (12, shared);
-# plus, per traced ray, Embree's int32 result and the hit mask (5). Checked with tracemalloc in
+# Working memory per candidate ray (one point-direction pair of a slice): per-thread buffers
+# reused across slices, weight f64 (8), horizon mask (1), directions (16), hit indices (8); per
+# traced ray, the flat indices (8), origins (16), Embree's int32 result and the hit mask (5); the
+# tiled directions table (16, shared by the threads). Checked with tracemalloc in
 # tests/test_transfer.py.
-RAY_BYTES = 96
+RAY_BYTES = 80
 
 
 # OpenBLAS runs a matrix product on its own thread pool when m * n * k exceeds about 2^18 (the
@@ -137,6 +140,22 @@ class TransferResult:
         return self.error_rms() / norm if norm > 0 else 0.0
 
 
+# Ray origins and directions are kept as rows of four float32 (x, y, z, 0) viewed as one 16-byte
+# item: numpy's take() and repeat() copy 16-byte items in a fast path but 12-byte rows element by
+# element (measured 3 to 5 times slower). _xyz() gives the (n, 3) float32 view Embree reads.
+_RAY16 = np.complex128
+
+
+def _rays16(xyz):
+    rows = np.zeros((len(xyz), 4), dtype=np.float32)
+    rows[:, :3] = xyz
+    return rows.view(_RAY16).reshape(-1)
+
+
+def _xyz(rays16):
+    return rays16.view(np.float32).reshape(-1, 4)[:, :3]
+
+
 def _unit_normals(normals):
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     length = np.linalg.norm(n, axis=1)
@@ -176,13 +195,14 @@ class TransferComputation:
         basis = directions.basis(self.order)
         self.n_dirs = len(dirs)
         self.n_a = (self.n_dirs + 1) // 2
+        self.error_scale = error_calibration(directions.kind, self.n_dirs, self.order)
         perm = np.concatenate([np.arange(0, self.n_dirs, 2), np.arange(1, self.n_dirs, 2)])
         self.dirs64 = np.ascontiguousarray(dirs[perm])
-        self.dirs32 = self.dirs64.astype(np.float32)
+        self.dirs16 = _rays16(self.dirs64)
         self.dirs64T = np.ascontiguousarray(self.dirs64.T)
         self.basis = np.ascontiguousarray(basis[perm])
         offset = np.broadcast_to(np.asarray(offset, dtype=np.float64), (count,))
-        self.origins32 = (self.positions + offset[:, None] * self.normals).astype(np.float32)
+        self.origins16 = _rays16(self.positions + offset[:, None] * self.normals)
         self.self_occludes = np.broadcast_to(np.asarray(self_occludes, dtype=bool), (count,))
         self.other_boxes = None if other_boxes is None else np.asarray(other_boxes, np.float64).reshape(-1, 2, 3)
         self.chunk_rays = max(1, int(chunk_rays))
@@ -202,6 +222,9 @@ class TransferComputation:
         self._cancel = False
         self._pool = pool
         self._own_pool = pool is None
+        self._pending = deque()  # (lo, hi, future) of queued slices, in point order
+        self._next = 0  # first point not yet queued
+        self._started = None
 
     @property
     def total(self):
@@ -215,6 +238,10 @@ class TransferComputation:
         self._cancel = True
 
     def close(self):
+        for _a, _b, future in self._pending:
+            future.cancel()
+        futures_wait([f for _a, _b, f in self._pending])
+        self._pending.clear()
         if self._pool is not None and self._own_pool:
             self._pool.shutdown(wait=True)
             self._pool = None
@@ -238,59 +265,48 @@ class TransferComputation:
             ws = self._local.ws = {
                 "weight": np.empty(size),
                 "above": np.empty(size, dtype=bool),
-                "flat": np.empty(size, dtype=np.intp),
+                "dirs": np.empty(size, dtype=_RAY16),
                 "index": np.empty(size, dtype=np.intp),
-                "origins": np.empty((size, 3), dtype=np.float32),
-                "dirs": np.empty((size, 3), dtype=np.float32),
-                "iota": np.arange(size, dtype=np.intp),
-                "rows": {},
             }
         return ws
-
-    def _row_index(self, ws, cols):
-        """Point index (row) of each flat position of a (points_per_slice, cols) block."""
-        rows = ws["rows"].get(cols)
-        if rows is None:
-            rows = ws["rows"][cols] = np.repeat(np.arange(self.points_per_slice, dtype=np.intp), cols)
-        return rows
 
     def _block(self, lo, hi, k0, k1, needs):
         """Directions [k0, k1) of points [lo, hi): (weight, n_above, flat, origins, dirs).
 
         weight is max(0, n . w) (T * pi), (hi - lo, k1 - k0) float64; `flat` are the flat
         indices into weight of the rays to trace (above the horizon, at points that need rays),
-        point-major, and origins/dirs those rays (float32). All are views of per-thread buffers,
-        valid until the next call in the same thread.
+        point-major, and origins/dirs those rays, (n, 3) float32 views of 16-byte rows. weight
+        and dirs are per-thread buffers, valid until the next call in the same thread.
         """
         ws = self._workspace()
         n_pts, cols = hi - lo, k1 - k0
         size = n_pts * cols
         weight = ws["weight"][:size].reshape(n_pts, cols)
         _matmul_rows(self.normals[lo:hi], self.dirs64T[:, k0:k1], out=weight)
-        above = ws["above"][:size]
-        np.greater(weight.reshape(-1), 0.0, out=above)
+        above = ws["above"][:size].reshape(n_pts, cols)
+        np.greater(weight, 0.0, out=above)
         n_above = int(np.count_nonzero(above))
         np.maximum(weight, 0.0, out=weight)
         if not needs.all():
-            above &= np.repeat(needs, cols)
-        n_trace = n_above if needs.all() else int(np.count_nonzero(above))
-        flat = np.compress(above, ws["iota"][:size], out=ws["flat"][:n_trace])
-        index = np.compress(above, self._row_index(ws, cols)[:size], out=ws["index"][:n_trace])
-        origins = np.take(self.origins32[lo:hi], index, axis=0, out=ws["origins"][:n_trace])
-        dirs = np.take(self._tiled_dirs(k0, k1), flat, axis=0, out=ws["dirs"][:n_trace])
-        return weight, n_above, flat, origins, dirs
+            above[~needs] = False
+        flat = np.flatnonzero(above)
+        # Rays are point-major: each origin is repeated once per direction it traces.
+        origins = np.repeat(self.origins16[lo:hi], np.count_nonzero(above, axis=1))
+        dirs = np.take(self._tiled_dirs(k0, k1), flat, out=ws["dirs"][: len(flat)])
+        return weight, n_above, flat, _xyz(origins), _xyz(dirs)
 
     def _tiled_dirs(self, k0, k1):
-        """dirs32[k0:k1] repeated for points_per_slice points: gathering from it by flat index
-        is several times faster than boolean indexing of a broadcast view."""
+        """dirs16[k0:k1] repeated for points_per_slice points (shared by the threads): the
+        directions of a block's rays are one take() from it by flat index."""
         key = (k0, k1)
         tiled = self._tiles.get(key)
         if tiled is None:
-            tiled = self._tiles[key] = np.tile(self.dirs32[k0:k1], (self.points_per_slice, 1))
+            tiled = self._tiles[key] = np.tile(self.dirs16[k0:k1], self.points_per_slice)
         return tiled
 
     def iter_rays(self):
-        """Every (origins, directions) batch the bake traces, in the same order (benchmarks)."""
+        """Every (origins, directions) batch the bake traces, in the same order (benchmarks),
+        as contiguous (n, 3) float32 arrays."""
         for lo in range(0, self.total, self.points_per_slice):
             hi = min(self.total, lo + self.points_per_slice)
             needs = self._needs_rays(lo, hi)
@@ -300,7 +316,7 @@ class TransferComputation:
                 k1 = min(self.n_dirs, k0 + self.dir_block)
                 _w, _n, _t, origins, dirs = self._block(lo, hi, k0, k1, needs)
                 if len(origins):
-                    yield origins.copy(), dirs.copy()
+                    yield np.ascontiguousarray(origins), np.ascontiguousarray(dirs)
 
     def _slice(self, lo, hi):
         """Project points [lo, hi): returns (t, err, stats) for the slice."""
@@ -330,7 +346,7 @@ class TransferComputation:
                 stats.occluded_rays += n_hit
                 if n_hit:
                     hit_flat = np.compress(hit, flat, out=self._workspace()["index"][:n_hit])
-                    np.put(weight.reshape(-1), hit_flat, 0.0)
+                    weight.reshape(-1)[hit_flat] = 0.0  # (np.put is several times slower)
             # Split the block at the A/B boundary (self.n_a) of the permuted direction order.
             split = min(max(self.n_a - k0, 0), k1 - k0)
             if split > 0:
@@ -342,10 +358,19 @@ class TransferComputation:
         t = (sum_a + sum_b) * (scale / self.n_dirs)
         if n_b:
             diff = sum_a / self.n_a - sum_b / n_b
-            err = 0.5 * scale * np.sqrt(np.einsum("ij,ij->i", diff, diff))
+            err = (0.5 * scale * self.error_scale) * np.sqrt(np.einsum("ij,ij->i", diff, diff))
         else:
             err = np.full(n_pts, np.inf)
         return t, err, stats
+
+    def _submit(self):
+        """Queue slices on the pool until `threads * SLICES_PER_THREAD` are pending."""
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(self.threads, thread_name_prefix="prt-bake")
+        while self._next < self.total and len(self._pending) < self.threads * SLICES_PER_THREAD:
+            a, b = self._next, min(self.total, self._next + self.points_per_slice)
+            self._pending.append((a, b, self._pool.submit(self._slice, a, b)))
+            self._next = b
 
     def step(self):
         """Process one chunk; returns False when every point is done."""
@@ -353,26 +378,27 @@ class TransferComputation:
             raise Cancelled()
         if self.done >= self.total:
             return False
-        t_start = time.perf_counter()
-        lo = self.done
-        # Several slices per step, taken by whichever worker is free (no lock-step between the
-        # threads); at most `threads` slices are in flight, so the memory bound holds.
-        step_points = self.points_per_slice * self.threads * SLICES_PER_THREAD
-        hi = min(self.total, lo + step_points)
-        pieces = [(a, min(hi, a + self.points_per_slice)) for a in range(lo, hi, self.points_per_slice)]
-        if len(pieces) > 1 and self.threads > 1:
-            if self._pool is None:
-                self._pool = ThreadPoolExecutor(self.threads, thread_name_prefix="prt-bake")
-            results = list(self._pool.map(lambda ab: self._slice(*ab), pieces))
-        else:
-            results = [self._slice(a, b) for a, b in pieces]
-        for (a, b), (t, err, stats) in zip(pieces, results):
+        if self._started is None:
+            self._started = time.perf_counter()
+        for _ in range(self.threads * SLICES_PER_THREAD):
+            if self.threads > 1:
+                # Slices stay queued ahead of the one collected, so a worker that finishes takes
+                # the next slice at once, also between step() calls: no thread waits for another
+                # at chunk boundaries. Only `threads` slices run at a time (the memory bound).
+                self._submit()
+                a, b, future = self._pending.popleft()
+                t, err, stats = future.result()
+            else:
+                a, b = self.done, min(self.total, self.done + self.points_per_slice)
+                t, err, stats = self._slice(a, b)
             self.coeffs[a:b] = t
             self.error[a:b] = err
-            stats.points = stats.candidate_rays = 0
             self.stats.add(stats)
-        self.done = hi
-        self.stats.seconds += time.perf_counter() - t_start
+            self.done = b
+            if self.done >= self.total:
+                break
+        # Wall time since the first step (workers also run between steps).
+        self.stats.seconds = time.perf_counter() - self._started
         return self.done < self.total
 
     def result(self):
@@ -387,6 +413,22 @@ class TransferComputation:
         finally:
             self.close()
         return self.result()
+
+
+def error_calibration(kind, count, order):
+    """Factor applied to the half-set estimate |t_A - t_B| / 2 (issue 6, docs/accuracy.md).
+
+    1 for i.i.d. and stratified sets (unbiased). For the Fibonacci set the halves are worse than
+    the whole by more than sqrt(2): quasi-Monte-Carlo error falls faster than N^-1/2, and when
+    N / 2 nears the n^2 coefficients the halves alias. Measured on Suzanne and a torus on a
+    ground plane (orders 2-8, 64-4096 directions) the raw ratio estimate / true error was
+    1.4-2.0 for N >= 4 n^2 and up to 7 at N = n^2; fitted: raw ratio ~ 1.5 (1 + 3.5 (n^2 / N)^2).
+    Dividing by it leaves 0.9-1.8 on those scenes (tests/test_extreme.py::
+    test_error_estimate_within_a_factor_of_two_on_a_reference_scene).
+    """
+    if str(kind).upper() != "FIBONACCI":
+        return 1.0
+    return 1.0 / (1.5 * (1.0 + 3.5 * (order * order / max(int(count), 1)) ** 2))
 
 
 def compute_transfer(positions, normals, directions, order, occluder=None, **kwargs):
