@@ -55,13 +55,16 @@ def normalize_directions(directions):
     d = np.asarray(directions, dtype=np.float64)
     if d.ndim != 2 or d.shape[1] != 3:
         raise ValueError(f"directions must have shape (N, 3), got {d.shape}")
-    norms = np.sqrt(np.einsum("ij,ij->i", d, d))
-    bad = ~np.isfinite(norms) | (norms == 0.0)
+    # Scale by the largest component first so that lengths near the float64 limits
+    # (1e-300, 1e300) neither underflow nor overflow when squared.
+    big = np.max(np.abs(d), axis=1)
+    bad = ~np.isfinite(big) | (big == 0.0)
     if bad.any():
         raise ValueError(
             f"{int(bad.sum())} of {len(d)} directions are zero-length or not finite"
         )
-    return d / norms[:, None]
+    d = d / big[:, None]
+    return d / np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
 
 
 def legendre_columns(z, order):
