@@ -1,6 +1,7 @@
 """Build the extension zips, one per platform, with the embreex wheels they need.
 
     .venv/bin/python scripts/build_extension.py [--output-dir build/dist] [--platforms linux-x64,...]
+                                                [--no-wheels]
 
 The wheels are downloaded from the package index at build time (never committed) for CPython
 3.11 (Blender 4.2 to 5.0) and 3.13 (Blender 5.1 and later); numpy is never bundled (Blender ships
@@ -63,10 +64,10 @@ def stage(stage_dir, platforms, wheels):
     manifest_path = os.path.join(stage_dir, "blender_manifest.toml")
     with open(manifest_path, encoding="utf-8") as f:
         manifest = f.read()
-    listed = "platforms = [%s]\nwheels = [\n%s]\n\n" % (
-        ", ".join(f'"{p}"' for p in platforms),
-        "".join(f'  "./wheels/{w}",\n' for w in wheels),
-    )
+    listed = "platforms = [%s]\n" % ", ".join(f'"{p}"' for p in platforms)
+    if wheels:  # the manifest allows no empty values
+        listed += "wheels = [\n%s]\n" % "".join(f'  "./wheels/{w}",\n' for w in wheels)
+    listed += "\n"
     # Top-level keys must come before the first [table] of the TOML file.
     first_table = manifest.index("\n[") + 1
     with open(manifest_path, "w", encoding="utf-8") as f:
@@ -77,6 +78,9 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--output-dir", default=os.path.join(ROOT, "build", "dist"))
     parser.add_argument("--platforms", default=",".join(PLATFORM_TAGS))
+    parser.add_argument("--no-wheels", action="store_true",
+                        help="bundle no embreex wheel (what a platform without one gets: the BVH tree "
+                             "fallback); nothing is downloaded")
     args = parser.parse_args(argv)
     platforms = [p for p in args.platforms.split(",") if p]
     unknown = set(platforms) - set(PLATFORM_TAGS)
@@ -86,7 +90,11 @@ def main(argv=None):
     stage_dir = os.path.join(ROOT, "build", "stage")
     wheel_dir = os.path.join(ROOT, "build", "wheels")
     shutil.rmtree(wheel_dir, ignore_errors=True)
-    wheels = download_wheels(platforms, wheel_dir)
+    if args.no_wheels:
+        os.makedirs(wheel_dir)
+        wheels = []
+    else:
+        wheels = download_wheels(platforms, wheel_dir)
     stage(stage_dir, platforms, wheels)
     shutil.copytree(wheel_dir, os.path.join(stage_dir, "wheels"))
     os.makedirs(args.output_dir, exist_ok=True)

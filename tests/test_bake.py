@@ -202,7 +202,7 @@ def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, 
     assert modal(op, bpy.context, timer) == {"RUNNING_MODAL"}
     assert 0 < job.fraction < 1
     assert modal(op, bpy.context, types.SimpleNamespace(type="ESC", timer=None)) == {"CANCELLED"}
-    assert "cancelled" in json.loads(settings.last_report)["message"]
+    assert "cancelled" in bake_ops.last_report(empty_scene)["message"]
     assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
     # The modal path also finishes a bake.
     job = bake_ops.BakeJob([monkey], bake_ops.BakeSettings(order=2, samples=32))
@@ -252,7 +252,7 @@ def test_failing_bake_leaves_attributes_untouched(empty_scene, bpy_module, bake_
     # In background mode bpy.ops turns an ERROR report into RuntimeError.
     with pytest.raises(RuntimeError, match="nothing was changed: boom"):
         bpy.ops.prt.bake_transfer()
-    assert "boom" in json.loads(empty_scene.prt_bake.last_report)["message"]
+    assert "boom" in bake_ops.last_report(empty_scene)["message"]
     assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
 
 
@@ -347,11 +347,11 @@ def test_bad_inputs_give_clear_reports(empty_scene, bpy_module, bake_ops):
     bpy.ops.object.select_all(action="DESELECT")
     with pytest.raises(RuntimeError, match="nothing selected"):
         bpy.ops.prt.bake_transfer()
-    assert "nothing selected" in json.loads(empty_scene.prt_bake.last_report)["message"]
+    assert "nothing selected" in bake_ops.last_report(empty_scene)["message"]
     empty.select_set(True)
     with pytest.raises(RuntimeError, match="not a mesh"):
         bpy.ops.prt.bake_transfer()
-    assert "not a mesh" in json.loads(empty_scene.prt_bake.last_report)["message"]
+    assert "not a mesh" in bake_ops.last_report(empty_scene)["message"]
 
 
 def test_modifiers_deform_is_used_topology_change_is_refused(empty_scene, bpy_module, mesh_io):

@@ -23,6 +23,8 @@ SQRT_4PI = math.sqrt(4.0 * math.pi)
 
 def new_world(bpy, scene, color=(1.0, 1.0, 1.0), strength=1.0):
     world = bpy.data.worlds.new("World")
+    if world.node_tree is None:  # Blender 4.x: new worlds have no nodes
+        world.use_nodes = True
     scene.world = world
     background = world.node_tree.nodes["Background"]
     background.inputs["Color"].default_value = (*color, 1.0)
@@ -287,6 +289,8 @@ def test_packed_and_saved_exr_images(bpy_module, empty_scene, tmp_path):
     path = str(tmp_path / "env.exr")
     image.filepath_raw = path
     image.file_format = "OPEN_EXR"
+    if bpy_module.app.version < (5, 0, 0):  # Blender 4.x Image.save() otherwise display-encodes
+        image.colorspace_settings.is_data = True
     image.save()
     bpy_module.data.images.remove(image)
 

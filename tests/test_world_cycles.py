@@ -103,6 +103,8 @@ def wrong_lightings(coeffs):
 
 def hdri_world(bpy, scene, name, euler=None, vector_type="POINT"):
     world = bpy.data.worlds.new("World")
+    if world.node_tree is None:  # Blender 4.x: new worlds have no nodes
+        world.use_nodes = True
     scene.world = world
     tree = world.node_tree
     env = tree.nodes.new("ShaderNodeTexEnvironment")
@@ -180,6 +182,8 @@ def test_sky_texture_world_is_rendered_and_agrees_with_cycles(bpy_module, empty_
     from prt_addon import api
 
     world = bpy_module.data.worlds.new("Sky")
+    if world.node_tree is None:  # Blender 4.x: new worlds have no nodes
+        world.use_nodes = True
     empty_scene.world = world
     sky = world.node_tree.nodes.new("ShaderNodeTexSky")
     sky.sun_disc = False  # keep the glow, drop the tiny disc (Cycles noise, not our error)
@@ -220,6 +224,8 @@ def test_8bit_srgb_direct_conversion_matches_cycles(bpy_module, empty_scene):
     from prt_addon.blender import world as world_mod
 
     world = bpy_module.data.worlds.new("World")
+    if world.node_tree is None:  # Blender 4.x: new worlds have no nodes
+        world.use_nodes = True
     empty_scene.world = world
     height, width = 32, 64
     image = bpy_module.data.images.new("byte", width, height)

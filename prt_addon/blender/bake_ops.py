@@ -81,6 +81,7 @@ class BakeReport:
     order: int = 0
     samples: int = 0
     direction_set: str = ""
+    note: str = ""  # e.g. why the slower BVH tree fallback ran
 
     @property
     def rays_per_second(self):
@@ -104,6 +105,8 @@ class BakeReport:
                 f"Error estimate {self.error_estimate:.2e} "
                 f"({100.0 * self.error_estimate_relative:.2f} % of |t|)",
             ]
+        if self.note:
+            lines.append(self.note)
         lines += [f"Skipped '{name}': {reason}" for name, reason in self.skipped]
         return lines
 
@@ -159,6 +162,12 @@ class _LazyOccluder:
         return real.occluded(origins, directions)
 
 
+def fallback_note():
+    """The sentence shown when Auto falls back to the BVH tree because embreex does not import."""
+    return (f"Embree (embreex) is not available on this system ({raytrace.EMBREE_IMPORT_ERROR}): "
+            "the slower BVH tree fallback was used (about 40 to 60 times slower, one thread)")
+
+
 def resolve_backend(requested):
     requested = str(requested).upper()
     if requested == "AUTO":
@@ -190,8 +199,16 @@ def _scene_parts(depsgraph):
         if len(triangles) == 0:
             continue
         owner = None if inst.is_instance else ob.original
-        world = mesh_io.transform_points(mesh_io.matrix_to_numpy(inst.matrix_world), positions)
-        parts.append((owner, world.astype(np.float32), triangles))
+        with np.errstate(invalid="ignore", over="ignore"):  # NaN/Inf vertices: dropped below
+            world = mesh_io.transform_points(mesh_io.matrix_to_numpy(inst.matrix_world), positions)
+            world = world.astype(np.float32)
+        finite = np.isfinite(world).all(axis=1)
+        if not finite.all():  # NaN/Inf vertices cannot occlude anything: drop their triangles
+            world = np.where(finite[:, None], world, np.float32(0.0))
+            triangles = triangles[finite[triangles].all(axis=1)]
+            if len(triangles) == 0:
+                continue
+        parts.append((owner, world, triangles))
     return parts
 
 
@@ -247,7 +264,8 @@ class BakeJob:
         if obj.mode == "EDIT" or mesh.is_editmode:
             return "is in Edit Mode: switch to Object Mode, then bake"
         if obj.library is not None or mesh.library is not None:
-            return "is linked from a library: make it local to bake it"
+            return ("is linked from a library and cannot be written: make it local "
+                    "(Object > Relations > Make Local > Selected Objects and Data) to bake it")
         if len(mesh.polygons) == 0:
             return "has no faces: a transfer bake needs faces (it only has vertices/edges)"
         if mesh.name in seen_meshes:
@@ -261,13 +279,22 @@ class BakeJob:
             return (f"has modifiers that change its topology [{_modifier_names(obj)}]: apply them "
                     "(Object > Apply > Visual Geometry to Mesh) or turn them off in the viewport, "
                     "then bake again")
-        seen_meshes[mesh.name] = name
         matrix = mesh_io.matrix_to_numpy(obj_eval.matrix_world)
-        points = mesh_io.bake_points(mesh_eval, matrix)
+        if not np.isfinite(matrix).all():
+            return "has a non-finite transform (NaN or infinity in location, rotation or scale)"
         positions = mesh_io.read_positions(mesh_eval)
+        bad = int(np.count_nonzero(~np.isfinite(positions).all(axis=1)))
+        if bad:
+            return (f"has {bad} vertices with non-finite coordinates (NaN or infinity): fix or delete "
+                    "them (e.g. in Edit Mode, Mesh > Clean Up), then bake again")
         world = mesh_io.transform_points(matrix, positions)
-        triangles = mesh_io.read_triangles(mesh_eval)
         diagonal = float(np.linalg.norm(world.max(axis=0) - world.min(axis=0)))
+        if not diagonal > 0.0 or abs(np.linalg.det(matrix[:3, :3])) < 1e-30:
+            return ("has zero size (all its vertices are at one point, or a scale of 0): "
+                    "its faces have no area to bake")
+        seen_meshes[mesh.name] = name
+        points = mesh_io.bake_points(mesh_eval, matrix)
+        triangles = mesh_io.read_triangles(mesh_eval)
         offset = max(OFFSET_REL * diagonal, OFFSET_ULP * float(np.abs(world).max()), 1e-30)
         self_occludes = True
         if self.settings.cull and not mesh_eval.has_custom_normals:
@@ -338,6 +365,8 @@ class BakeJob:
     def finish(self):
         """Write every baked mesh (all or nothing) and return the report."""
         s, rep = self.settings, self.report
+        if self._cancel:
+            raise transfer.Cancelled()
         items, errors, norms = [], [], []
         stats_all = transfer.TransferStats()
         backends = set()
@@ -384,6 +413,8 @@ class BakeJob:
         rep.ok = True
         rep.objects = [p.name for p in self.plans]
         rep.backend = backends.pop() if backends else "NONE"
+        if rep.backend == "BVHTREE" and s.backend == "AUTO":
+            rep.note = fallback_note()
         rep.seconds = time.perf_counter() - self.started
         rep.rays_traced = stats_all.rays_traced
         rep.rays_skipped = stats_all.rays_skipped
@@ -474,15 +505,46 @@ def settings_from(group):
                         group.self_shadow_only, group.backend)
 
 
+# Reports of bakes that changed nothing (refused, failed, cancelled) are kept in memory only, so
+# that a refused bake leaves the .blend exactly as it was; a finished bake saves its report in
+# scene.prt_bake.last_report (it changed the file anyway).
+_unsaved_reports = {}  # scene.session_uid -> report dict
+
+
+def _scene_key(scene):
+    return getattr(scene, "session_uid", None) or scene.as_pointer()
+
+
 def _store_report(scene, report):
+    if not report.ok:
+        _unsaved_reports[_scene_key(scene)] = report.as_dict()
+        return
+    _unsaved_reports.pop(_scene_key(scene), None)
     settings = getattr(scene, "prt_bake", None)
     if settings is not None:
         settings.last_report = json.dumps(report.as_dict())
 
 
+def last_report(scene):
+    """The report (a dict, see BakeReport.as_dict) of the last bake in this scene, or None: that
+    of a bake that changed nothing this session if there is one, else the saved one."""
+    data = _unsaved_reports.get(_scene_key(scene))
+    if data is not None:
+        return dict(data)
+    saved = getattr(getattr(scene, "prt_bake", None), "last_report", "")
+    if not saved:
+        return None
+    try:
+        return json.loads(saved)
+    except ValueError:
+        return None
+
+
 def _report_to_operator(op, report):
     if report.ok:
         op.report({"INFO"}, "PRT: " + " | ".join(report.summary_lines()[:1] + report.summary_lines()[4:5]))
+    if report.note:
+        op.report({"WARNING"}, f"PRT: {report.note}")
     for name, reason in report.skipped:
         op.report({"WARNING"}, f"PRT: skipped '{name}': {reason}")
 
@@ -512,6 +574,9 @@ class PRT_OT_bake_transfer(bpy.types.Operator):
     def _job(self, context):
         settings = settings_from(context.scene.prt_bake)
         try:
+            if _running:
+                raise BakeError("a bake is already running: wait for it to finish, or press Esc "
+                                "to cancel it, then bake again")
             return BakeJob(context.selected_objects, settings, context.evaluated_depsgraph_get())
         except BakeError as exc:
             failed = BakeReport(message=f"Bake not started: {exc}")
@@ -569,6 +634,10 @@ class PRT_OT_bake_transfer(bpy.types.Operator):
             _store_report(context.scene, BakeReport(cancelled=True, message="Bake cancelled: nothing was changed"))
             self.report({"WARNING"}, "PRT: bake cancelled, nothing was changed")
             return {"CANCELLED"}
+        if self._bake._cancel:  # cancelled from outside (the add-on was disabled): write nothing
+            self._cleanup(context)
+            self.report({"WARNING"}, "PRT: bake cancelled, nothing was changed")
+            return {"CANCELLED"}
         if event.type != "TIMER" or event.timer is not self._timer:
             return {"PASS_THROUGH"} if event.type in _NAVIGATION else {"RUNNING_MODAL"}
         deadline = time.perf_counter() + TIME_SLICE
@@ -620,8 +689,13 @@ class PRT_PT_bake(bpy.types.Panel):
         sub.enabled = settings.shadows
         sub.prop(settings, "self_shadow_only")
         sub.prop(settings, "backend")
-        if settings.backend == "EMBREE" and not raytrace.EMBREE_AVAILABLE:
-            layout.label(text="Embree is not available here", icon="ERROR")
+        if not raytrace.EMBREE_AVAILABLE:
+            if settings.backend == "EMBREE":
+                layout.label(text="Embree is not available here: choose Auto or BVH Tree", icon="ERROR")
+            else:
+                col = layout.column(align=True)
+                col.label(text="Embree (embreex) is not available here:", icon="INFO")
+                col.label(text="the BVH tree fallback bakes 40-60x slower")
         layout.operator(PRT_OT_bake_transfer.bl_idname, text="Bake", icon="RENDER_STILL")
         stale = []
         for obj in context.selected_objects[:16]:
@@ -637,9 +711,9 @@ class PRT_PT_bake(bpy.types.Panel):
         for name, reason in stale:
             if obj is None or name != obj.name:
                 layout.label(text=f"{name}: stale ({reason})", icon="ERROR")
-        if settings.last_report:
+        data = last_report(context.scene)
+        if data:
             try:
-                data = json.loads(settings.last_report)
                 report = BakeReport(**{k: v for k, v in data.items() if k in BakeReport.__dataclass_fields__})
             except (ValueError, TypeError):
                 return
@@ -656,16 +730,27 @@ def register_extra():
 
 
 def unregister_extra():
+    """Stop a running modal bake (the add-on is being disabled): cancel it, remove its timer,
+    end the progress bar and status text, close the worker threads. Nothing is written."""
     for op in list(_running):
-        try:
-            op._bake.cancel()
-            wm = bpy.context.window_manager
-            if op._timer is not None:
-                wm.event_timer_remove(op._timer)
-                op._timer = None
-            op._steps.close()
-        except (ReferenceError, AttributeError, RuntimeError):
-            pass
         _running.discard(op)
+        for step in ("cancel", "timer", "steps", "progress"):
+            try:
+                if step == "cancel":
+                    op._bake.cancel()
+                elif step == "timer" and op._timer is not None:
+                    bpy.context.window_manager.event_timer_remove(op._timer)
+                    op._timer = None
+                elif step == "steps":
+                    op._steps.close()
+                elif step == "progress":
+                    wm = bpy.context.window_manager
+                    if wm is not None:
+                        wm.progress_end()
+                    workspace = bpy.context.workspace
+                    if workspace is not None:
+                        workspace.status_text_set(None)
+            except (ReferenceError, AttributeError, RuntimeError, TypeError, ValueError):
+                pass
     if hasattr(bpy.types.Scene, "prt_bake"):
         del bpy.types.Scene.prt_bake

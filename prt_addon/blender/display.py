@@ -298,8 +298,8 @@ def shade(obj, scene=None):
     bpy.context.evaluated_depsgraph_get()  # flush pending transform edits into matrix_world
     mesh = obj.data
     info, problem = bake_status(mesh)
-    if info is None:
-        raise ValueError(f"{obj.name}: {problem}")
+    if info is None or problem:  # not baked, or stale (topology changed since the bake)
+        raise ValueError(f"'{obj.name}': {problem}: bake it (PRT tab > Bake Transfer)")
     light = object_light(obj, scene, info.order)
     if light is None:
         raise ValueError("the scene has no PRT lighting (project the world first)")

@@ -42,7 +42,14 @@ class PRT_OT_set_light_rotation(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        return display.find_environment_node(context.scene.world) is not None
+        if context.scene is None or context.scene.world is None:
+            cls.poll_message_set("The scene has no World: add one in the World properties")
+            return False
+        if display.find_environment_node(context.scene.world) is None:
+            cls.poll_message_set("The world has no Environment Texture to rotate: "
+                                 "add an HDRI to the World first")
+            return False
+        return True
 
     def invoke(self, context, _event):
         self.rotation = display.mapping_rotation_euler(context.scene.world)

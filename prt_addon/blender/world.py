@@ -54,6 +54,9 @@ _BYTE_CONVERSIONS = {
 _RAW_COLORSPACES = ("Non-Color", "scene_linear")
 
 
+MAX_ORDER = 32  # the Order property's maximum; (order**2, 3) coefficients
+
+
 class WorldError(ValueError):
     """The world cannot be projected; the message is meant for the user."""
 
@@ -459,7 +462,9 @@ def project_and_store(scene, order=None):
     """Project and store; returns the WorldProjection. On WorldError nothing is changed."""
     if order is None:
         order = scene.prt_world.order
-    result = project(scene, order)
+    if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or not 1 <= order <= MAX_ORDER:
+        raise WorldError(f"the SH order must be an integer from 1 to {MAX_ORDER}, got {order!r}")
+    result = project(scene, int(order))
     store(scene, result)
     return result
 
