@@ -185,7 +185,14 @@ def main(argv=None):
         for i, (r, g, b) in enumerate(coeffs[3]):
             l = int(np.sqrt(i))
             print(f"  i={i} l={l} m={i - l * (l + 1):>2}: {r:10.5f} {g:10.5f} {b:10.5f}")
-    run_scene(args)
+    import prt_addon
+
+    try:
+        run_scene(args)
+    finally:
+        # bpy 4.x as a module frees classes still registered at exit after Python has shut down
+        # and segfaults: unregister while Python runs (full Blender does this itself).
+        prt_addon.unregister()
     return 0
 
 
