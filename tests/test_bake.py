@@ -97,6 +97,28 @@ def test_flat_shading_bakes_per_corner(empty_scene, bpy_module, mesh_io):
     assert ground.data["prt_bake"]["domain"] == "POINT"
 
 
+def test_loose_vertices_do_not_fool_the_per_vertex_shortcut(empty_scene, bpy_module, mesh_io):
+    """Two flat triangles folded along an edge (its 2 vertices have 2 normals each) plus 2 loose
+    vertices: 6 (vertex, normal) pairs for 6 vertices, but not one normal per vertex. It must bake
+    per corner, each corner holding the clamped cosine of its own face's normal."""
+    bpy = bpy_module
+    mesh = bpy.data.meshes.new("fold")
+    verts = [(0, 0, 0), (1, 0, 0), (0.5, 1, 0), (0.5, -1, 0.8), (5, 5, 5), (6, 5, 5)]
+    mesh.from_pydata(verts, [], [(0, 1, 2), (1, 0, 3)])
+    mesh.shade_flat()
+    obj = bpy.data.objects.new("fold", mesh)
+    empty_scene.collection.objects.link(obj)
+    from prt_addon import api
+
+    api.bake([obj], order=2, samples=64, shadows=False)
+    assert mesh["prt_bake"]["domain"] == "CORNER"
+    values = mesh_io.read_transfer(mesh)
+    face_normals = np.array([p.normal for p in mesh.polygons])
+    expected = np.array([analytic.clamped_cosine_coeffs(2, face_normals[p.index])
+                         for p in mesh.polygons for _ in p.loop_indices])
+    np.testing.assert_allclose(values, expected, atol=2e-2)
+
+
 def test_unoccluded_vertex_is_clamped_cosine_in_local_frame(empty_scene, bpy_module, mesh_io):
     """A lone convex object: no rays at all, and each vertex stores the clamped cosine of its
     local normal (the local frame undoes the object's rotation and scale)."""
@@ -390,3 +412,17 @@ def test_lone_convex_object_traces_nothing_and_ground_contact_does(empty_scene, 
     # their ~32 rays each above the horizon are skipped; the sides and the plane are traced.
     assert report.rays_traced > 0 and report.backend in ("EMBREE", "BVHTREE")
     assert 8 * 28 <= report.skipped_unoccludable <= 8 * 36
+
+
+def test_bad_seed_is_refused_before_any_ray(empty_scene, bpy_module, mesh_io, monkeypatch):
+    bpy = bpy_module
+    bpy.ops.mesh.primitive_plane_add()
+    plane = bpy.context.object
+    from prt_addon import api
+    from prt_addon.blender import bake_ops
+
+    monkeypatch.setattr(bake_ops.BakeJob, "steps", lambda *a, **k: pytest.fail("traced before validating"))
+    for seed in (None, -1, 2.5):
+        with pytest.raises(ValueError, match="seed must be an integer >= 0"):
+            api.bake([plane], seed=seed)
+    assert "prt_bake" not in plane.data

@@ -431,10 +431,7 @@ def test_world_projection_seam(bpy_module, lit_scene):
     world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
     lit_scene.world = world
     display.set_light_override(lit_scene, None)
-    try:
-        world_mod.project_and_store(lit_scene, 3)
-    except Exception as exc:  # the world module is still being written by issue 3
-        pytest.skip(f"world projection unavailable: {exc}")
+    world_mod.project_and_store(lit_scene, 3)
     obj = bake_sphere(bpy_module, 3, segments=16, rings=8)
     np.testing.assert_allclose(api.shade(obj, lit_scene), np.tile([0.3, 0.5, 0.7], (len(obj.data.vertices), 1)), rtol=1e-3)
 

@@ -68,7 +68,7 @@ def test_order_one_and_largest_order(empty_scene, bpy_module, order):
     from prt_addon.blender import bake_ops
 
     bpy = bpy_module
-    assert bpy.types.PRT_OT_bake_transfer if hasattr(bpy.types, "PRT_OT_bake_transfer") else True
+    assert hasattr(bpy.types, "PRT_OT_bake_transfer")
     assert bake_ops.MAX_ORDER == 16
     plane = mesh_object(bpy, empty_scene, "plane", *grid(6, 2.0))
     box_v = [(x, y, z) for x in (-0.3, 0.3) for y in (-0.3, 0.3) for z in (0.5, 1.1)]

@@ -164,7 +164,7 @@ def test_embree_cup_mesh_matches_closed_form():
 @pytest.mark.parametrize("kind, lo, hi", [("UNIFORM", 0.7, 1.4), ("STRATIFIED", 0.7, 1.5), ("FIBONACCI", 0.5, 2.0)])
 def test_error_estimate_tracks_true_error(kind, lo, hi):
     """RMS of |t_A - t_B| / 2 over 32 independent direction sets against the RMS true error, on
-    the cup (shadowed): unbiased for i.i.d. and stratified sets, conservative for Fibonacci."""
+    the cup (shadowed): unbiased for i.i.d. and stratified sets, calibrated for Fibonacci (core.transfer.error_calibration)."""
     expected = cup_coeffs(ORDER, np.pi / 4)
     true, est = [], []
     for seed in range(32):

@@ -57,7 +57,9 @@ class BakeSettings:
         self.backend = str(self.backend).upper()
         if self.backend not in BACKENDS:
             raise BakeError(f"backend must be one of {BACKENDS}, got {self.backend!r}")
-        self.order, self.samples = int(self.order), int(self.samples)
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise BakeError(f"seed must be an integer >= 0, got {self.seed!r}")
+        self.order, self.samples, self.seed = int(self.order), int(self.samples), int(self.seed)
         return self
 
 

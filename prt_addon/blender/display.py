@@ -26,6 +26,8 @@ import numpy as np
 from bpy.app.handlers import persistent
 
 from ..core import rotation as _rotation
+from . import mesh_io as _mesh_io
+from . import world as _world
 from ..core import sh as _sh
 
 ATTR_PREFIX = "prt_t"
@@ -84,22 +86,12 @@ def bake_status(mesh, check_topology=True):
 
 
 def topology_changed(mesh, record):
-    """True when the record's fingerprint is not the mesh's current topology fingerprint.
-
-    The fingerprint is defined by the bake (issue 4, mesh_io.topology_fingerprint); without that
-    module nothing is reported stale.
-    """
+    """True when the record's fingerprint is not the mesh's current topology fingerprint (exact,
+    not the UI's cached one: an edit that keeps the element counts must still be caught)."""
     stored = record.get("fingerprint")
     if stored is None:
         return False
-    try:
-        from . import mesh_io as _mesh_io  # issue 4
-    except ImportError:
-        return False
-    func = getattr(_mesh_io, "cached_fingerprint", None) or getattr(_mesh_io, "topology_fingerprint", None)
-    if func is None:
-        return False
-    return str(stored) != str(func(mesh))
+    return str(stored) != str(_mesh_io.topology_fingerprint(mesh))
 
 
 def element_count(mesh, domain):
@@ -151,10 +143,6 @@ def world_light(scene):
     if override is not None:
         rot = mapping_light_rotation(scene)
         return override if rot is None else _rotation.rotate(override, rot)
-    try:
-        from . import world as _world  # issue 3
-    except ImportError:
-        return None
     coeffs = _world.current_world_coeffs(scene)
     return None if coeffs is None else np.asarray(coeffs, dtype=np.float64)
 
@@ -768,6 +756,7 @@ def _on_depsgraph_update(_scene, depsgraph):
             mesh = ident.original.data
         if mesh is not None:
             _mesh_cache.pop(mesh.as_pointer(), None)
+            _mesh_io.forget_cached_fingerprints(mesh)
 
 
 _APP_HANDLERS = (

@@ -153,7 +153,7 @@ def bake_points(mesh, matrix4):
     unique, inverse = np.unique(rows, axis=0, return_inverse=True)
     vert = unique[:, 0]
     normals = np.ascontiguousarray(unique[:, 1:]).view(np.float32)
-    if len(unique) == len(positions):  # sorted by vertex: one normal per vertex, all used
+    if np.array_equal(vert, np.arange(len(positions))):  # sorted by vertex: exactly one normal each
         return BakePoints(
             "POINT", transform_points(matrix4, positions), transform_normals(matrix4, normals),
             None, len(positions),
@@ -196,8 +196,11 @@ def snapshot(mesh):
         buf = np.empty(size * width, dtype=dtype)
         try:
             mesh.attributes[name].data.foreach_get(prop, buf)
-        except (TypeError, AttributeError, RuntimeError):
-            buf = None
+        except (TypeError, AttributeError, RuntimeError) as error:
+            raise ValueError(
+                f"cannot read attribute '{name}' of mesh '{mesh.name}' to keep a copy, so the bake "
+                f"would not be undoable on failure: {error}"
+            ) from None
         attrs.append((name, domain, data_type, prop, buf))
     record = mesh.get(RECORD)
     record = record.to_dict() if hasattr(record, "to_dict") else record
@@ -230,8 +233,7 @@ def restore(mesh, snap):
         _remove(mesh, name)
     for name, domain, data_type, prop, buf in snap["attrs"]:
         mesh.attributes.new(name, data_type, domain)
-        if buf is not None:
-            mesh.attributes[name].data.foreach_set(prop, buf)
+        mesh.attributes[name].data.foreach_set(prop, buf)
     if snap["record"] is None:
         if RECORD in mesh:
             del mesh[RECORD]
@@ -311,6 +313,13 @@ def cached_fingerprint(mesh):
             _fingerprint_cache.clear()
         value = _fingerprint_cache[key] = topology_fingerprint(mesh)
     return value
+
+
+def forget_cached_fingerprints(mesh):
+    """Drop the cached fingerprints of `mesh` (its geometry changed, perhaps not its counts)."""
+    pointer = mesh.as_pointer()
+    for key in [k for k in _fingerprint_cache if k[0] == pointer]:
+        del _fingerprint_cache[key]
 
 
 def bake_status(mesh, use_cache=False):

@@ -17,12 +17,11 @@ Culling (no rays where nothing can occlude), used by prt_addon.core.transfer:
   which is what Blender's vertex normals are), stays in the open half-space {(z - x) . n > 0}
   that contains no point of K. A planar mesh is the degenerate case. This does not hold for
   custom normals, so the caller must not use it then.
-* `box_can_occlude(points, normals, lo, hi)`: an axis-aligned box can only occlude rays above the
+* `box_can_occlude(points, normals, boxes)`: an axis-aligned box can only occlude rays above the
   tangent plane of (x, n) if part of it lies above that plane: max over the box of (z - x) . n =
   (c - x) . n + h . |n| > 0, with c the centre and h the half extents.
 """
 
-import threading
 
 import numpy as np
 
@@ -69,7 +68,6 @@ class EmbreeOccluder:
         self.triangle_count = len(t)
         self._scene = _embree_scene.EmbreeScene(robust=robust)
         self._mesh = _embree_mesh.TriangleMesh(self._scene, v, t)
-        self._lock = threading.Lock()
         self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
 
     def occluded(self, origins, directions):
@@ -81,10 +79,6 @@ class EmbreeOccluder:
             return np.zeros(0, dtype=bool)
         # run() returns int32: 0 where occluded, -1 where the ray is free.
         return self._scene.run(o, d, query="OCCLUDED") == 0
-
-
-def make_embree_occluder(vertices, triangles):
-    return EmbreeOccluder(vertices, triangles)
 
 
 def bounding_box(vertices):

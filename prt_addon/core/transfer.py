@@ -22,8 +22,8 @@ Error estimate: the direction set is split into two interleaved halves A (even k
 each an unbiased quadrature on its own. t = (|A| t_A + |B| t_B) / N, and |t_A - t_B| / 2 is, for
 i.i.d. directions, an unbiased proxy of the standard error of t (Var(t_A - t_B) = 4 Var(t) when
 |A| = |B|). For low-discrepancy sets (Fibonacci) it overestimates the error of the full set,
-because halving the set costs more than a factor sqrt(2); see docs/bake.md for the measured
-ratio. The per-point figure is the L2 norm over the coefficients.
+because halving the set costs more than a factor sqrt(2), so error_calibration() scales it by
+a factor fitted to measurements (docs/accuracy.md: then within 0.9 to 1.8 of the true error). The per-point figure is the L2 norm over the coefficients.
 
 Memory: points are processed in slices of at most chunk_rays / threads candidate (point,
 direction) pairs per thread. Each pair costs about RAY_BYTES of buffers, so the working set is
@@ -245,6 +245,9 @@ class TransferComputation:
         if self._pool is not None and self._own_pool:
             self._pool.shutdown(wait=True)
             self._pool = None
+        # A job keeps every computation until it writes: drop the scratch buffers (~11 MB).
+        self._local = threading.local()
+        self._tiles = {}
 
     def _needs_rays(self, lo, hi):
         if self.occluder is None:
