@@ -26,11 +26,12 @@ import numpy as np
 from bpy.app.handlers import persistent
 
 from ..core import rotation as _rotation
+from ..core import sh as _sh
+from ..core import transfer as _transfer
 from . import mesh_io as _mesh_io
 from . import world as _world
-from ..core import sh as _sh
 
-ATTR_PREFIX = "prt_t"
+ATTR_PREFIX = _mesh_io.PREFIX
 RECORD_KEY = "prt_bake"
 # GL guarantees (and llvmpipe offers) 16 vertex attributes; position and albedo use two.
 MAX_VERTEX_ATTRIBUTES = 16
@@ -38,12 +39,9 @@ MAX_ATTRIBUTE_TRANSFER = MAX_VERTEX_ATTRIBUTES - 2  # 14 vec4 = 56 coefficients:
 VIEWPORT_DEPTH_BIAS = 2e-5  # clip-space z bias so the overlay wins against the engine's own depth
 
 
-def attribute_name(k):
-    return f"{ATTR_PREFIX}{k:02d}"
-
-
-def attribute_count(order):
-    return (order * order + 3) // 4
+# The storage layout belongs to the bake (docs/storage.md); the display only reads it.
+attribute_name = _mesh_io.attribute_name
+attribute_count = _mesh_io.attribute_count
 
 
 # ---------------------------------------------------------------------------------------------
@@ -240,26 +238,15 @@ def mapping_light_rotation(scene):
 # ---------------------------------------------------------------------------------------------
 
 
-def polar_rotation(matrix3):
-    """(R, parity): rotation part of a 3x3 linear map by polar decomposition (scale and shear
-    removed). For a reflection (det < 0) R is the proper rotation -U V^T and parity is True:
-    the map's orthogonal part is -R, an inversion after R."""
-    m = np.asarray(matrix3, dtype=np.float64)
-    u, _s, vt = np.linalg.svd(m)
-    r = u @ vt
-    if np.linalg.det(r) < 0:
-        return -r, True
-    return r, False
-
-
 def light_in_local_frame(light_world, matrix_world, order):
     """(order**2, 3) light in the object's local frame: rotated by the inverse of the rotation
-    part of matrix_world, truncated or zero-padded to `order`."""
+    part of matrix_world, truncated or zero-padded to `order`. The same frame as the bake's
+    core.transfer.to_local_frame, applied to the light instead of the transfer."""
     n2 = order * order
     light = np.zeros((n2, 3))
     m = min(n2, light_world.shape[0])
     light[:m] = light_world[:m]
-    r, parity = polar_rotation(np.asarray(matrix_world, dtype=np.float64)[:3, :3])
+    r, parity = _transfer.frame_rotation(np.asarray(matrix_world, dtype=np.float64)[:3, :3])
     if np.abs(r - np.eye(3)).max() > 1e-12:
         light = _rotation.rotate(light, r.T)
     if parity:
@@ -444,12 +431,6 @@ def _albedo_attribute(mesh, name):
     return None
 
 
-def _corner_vertices(mesh):
-    out = np.empty(len(mesh.loops), dtype=np.int32)
-    mesh.loops.foreach_get("vertex_index", out)
-    return out
-
-
 def element_albedo(mesh, domain, mode, attr_name):
     """(elements, 4) float32 per-element albedo factor: ones unless mode == 'ATTRIBUTE'."""
     n = element_count(mesh, domain)
@@ -465,7 +446,7 @@ def element_albedo(mesh, domain, mode, attr_name):
     values = values.reshape(src_n, 4)
     if attr.domain == domain:
         return values
-    corner_verts = _corner_vertices(mesh)
+    corner_verts = _mesh_io.read_corner_verts(mesh)
     if domain == "CORNER":  # POINT colours onto corners
         return np.ascontiguousarray(values[corner_verts])
     # CORNER colours onto vertices: the mean of each vertex's corners.
@@ -490,7 +471,7 @@ def build_mesh_entry(mesh, info, albedo_mode="MATERIAL", albedo_attr=""):
     mat_index = np.empty(ntri, dtype=np.int32)
     mesh.loop_triangles.foreach_get("material_index", mat_index)
     if info.domain == "CORNER":
-        positions = np.ascontiguousarray(positions[_corner_vertices(mesh)])
+        positions = np.ascontiguousarray(positions[_mesh_io.read_corner_verts(mesh)])
     transfer = read_transfer(mesh, info)
     albedo = element_albedo(mesh, info.domain, albedo_mode, albedo_attr)
 
