@@ -9,6 +9,7 @@ the PRT display always agree. prt.set_light_rotation creates the node when there
 import bpy
 
 from . import display
+from .panels import PRTSubPanel
 
 
 class PRT_PG_display(bpy.types.PropertyGroup):
@@ -62,13 +63,9 @@ class PRT_OT_set_light_rotation(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class VIEW3D_PT_prt_display(bpy.types.Panel):
+class VIEW3D_PT_prt_display(PRTSubPanel, bpy.types.Panel):
     bl_idname = "VIEW3D_PT_prt_display"
     bl_label = "Display"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "PRT"
-    bl_parent_id = "VIEW3D_PT_prt"
 
     def draw(self, context):
         layout = self.layout

@@ -15,4 +15,13 @@ class VIEW3D_PT_prt(bpy.types.Panel):
         self.layout.prop(settings, "show_display")
 
 
+class PRTSubPanel:
+    """Placement shared by the feature panels: sub-panels of VIEW3D_PT_prt in the "PRT" tab."""
+
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "PRT"
+    bl_parent_id = "VIEW3D_PT_prt"
+
+
 CLASSES = [VIEW3D_PT_prt]

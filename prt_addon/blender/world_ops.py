@@ -7,6 +7,7 @@ PRT_PG_world holds the order to project at and the record of the last projection
 import bpy
 
 from . import world
+from .panels import PRTSubPanel
 
 
 class PRT_PG_world(bpy.types.PropertyGroup):
@@ -82,13 +83,9 @@ class PRT_OT_project_world(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class VIEW3D_PT_prt_world(bpy.types.Panel):
+class VIEW3D_PT_prt_world(PRTSubPanel, bpy.types.Panel):
     bl_idname = "VIEW3D_PT_prt_world"
     bl_label = "World Lighting"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "PRT"
-    bl_parent_id = "VIEW3D_PT_prt"
 
     def draw(self, context):
         settings = context.scene.prt_world
