@@ -130,7 +130,8 @@ class _Plan:
 
 
 class _LazyOccluder:
-    """Builds the real occluder on the first query, so no BVH is built when no ray is traced."""
+    """The real occluder, built on the first query or in the background after start() (the
+    scene's Embree occluder: its build overlaps the job's set-up); queries wait for the build."""
 
     def __init__(self, backend, vertices, triangles):
         self.name = backend
@@ -139,6 +140,20 @@ class _LazyOccluder:
         self._real = None
         self._lock = threading.Lock()
         self.build_seconds = 0.0
+        self._started = None
+
+    def start(self, pool):
+        """Build in the background on `pool` (Embree only: embreex releases the GIL during the
+        BVH build) while the caller prepares the rest. A failure there is not raised: the first
+        query builds again and raises it, as without start()."""
+        if self.name == "EMBREE" and self._started is None:
+            self._started = pool.submit(self._build_quietly)
+
+    def _build_quietly(self):
+        try:
+            self._build()
+        except Exception:  # noqa: BLE001 - raised again by the first query
+            pass
 
     @property
     def built(self):
@@ -186,9 +201,11 @@ def _modifier_names(obj):
     return ", ".join(f"{m.name} ({m.type.replace('_', ' ').title()})" for m in obj.modifiers if m.show_viewport)
 
 
-def _scene_parts(depsgraph):
-    """World-space triangles of every visible mesh instance: [(original object or None, V, T)]."""
-    cache, parts = {}, []
+def _scene_parts(depsgraph, cache=None):
+    """World-space triangles of every visible mesh instance: [(original object or None, V, T)].
+    cache: {evaluated mesh pointer: (positions, triangles)} already read (filled in here)."""
+    cache = {} if cache is None else cache
+    parts = []
     for inst in depsgraph.object_instances:
         ob = inst.object
         if ob.type != "MESH":
@@ -241,18 +258,29 @@ class BakeJob:
             depsgraph = bpy.context.evaluated_depsgraph_get()
         self.backend = resolve_backend(self.settings.backend)
         self.plans = []
-        seen_meshes = {}
-        for obj in objects:
-            reason = self._check(obj, depsgraph, seen_meshes)
-            if isinstance(reason, str):
-                self.report.skipped.append((getattr(obj, "name", repr(obj)), reason))
-            else:
-                self.plans.append(reason)
-        if not self.plans:
-            reasons = "; ".join(f"'{n}' {r}" for n, r in self.report.skipped)
-            raise BakeError(f"nothing to bake: {reasons}")
-        self.directions = make_directions(self.settings.direction_set, self.settings.samples, self.settings.seed)
-        self._prepare_occluders(depsgraph)
+        self._reads = {}  # evaluated mesh pointer -> (positions, triangles), read once
+        self._pool = ThreadPoolExecutor(max(1, self.settings.threads), thread_name_prefix="prt-bake")
+        try:
+            # The scene's occluder first: its BVH builds on a worker while the checks and the
+            # baked points are prepared here (docs/bake.md, "Throughput").
+            self._scene_occluder(depsgraph)
+            seen_meshes = {}
+            for obj in objects:
+                reason = self._check(obj, depsgraph, seen_meshes)
+                if isinstance(reason, str):
+                    self.report.skipped.append((getattr(obj, "name", repr(obj)), reason))
+                else:
+                    self.plans.append(reason)
+            if not self.plans:
+                reasons = "; ".join(f"'{n}' {r}" for n, r in self.report.skipped)
+                raise BakeError(f"nothing to bake: {reasons}")
+            self.directions = make_directions(self.settings.direction_set, self.settings.samples,
+                                              self.settings.seed)
+            self._prepare_occluders()
+            self._parts = self._reads = None  # not needed any more: free the arrays
+        except BaseException:
+            self._pool.shutdown(wait=False, cancel_futures=True)
+            raise
         self.total_points = sum(len(p.points.positions) for p in self.plans)
 
     def _check(self, obj, depsgraph, seen_meshes):
@@ -284,7 +312,8 @@ class BakeJob:
         matrix = mesh_io.matrix_to_numpy(obj_eval.matrix_world)
         if not np.isfinite(matrix).all():
             return "has a non-finite transform (NaN or infinity in location, rotation or scale)"
-        positions = mesh_io.read_positions(mesh_eval)
+        cached = self._reads.get(mesh_eval.as_pointer())
+        positions = cached[0] if cached else mesh_io.read_positions(mesh_eval)
         bad = int(np.count_nonzero(~np.isfinite(positions).all(axis=1)))
         if bad:
             return (f"has {bad} vertices with non-finite coordinates (NaN or infinity): fix or delete "
@@ -296,7 +325,8 @@ class BakeJob:
                     "its faces have no area to bake")
         seen_meshes[mesh.name] = name
         points = mesh_io.bake_points(mesh_eval, matrix)
-        triangles = mesh_io.read_triangles(mesh_eval)
+        triangles = cached[1] if cached else mesh_io.read_triangles(mesh_eval)
+        self._reads[mesh_eval.as_pointer()] = (positions, triangles)
         offset = max(OFFSET_REL * diagonal, OFFSET_ULP * float(np.abs(world).max()), 1e-30)
         self_occludes = True
         if self.settings.cull and not mesh_eval.has_custom_normals:
@@ -304,16 +334,20 @@ class BakeJob:
         return _Plan(obj, name, mesh, matrix, points, fingerprint, offset, self_occludes,
                      world.astype(np.float32), triangles)
 
-    def _prepare_occluders(self, depsgraph):
+    def _scene_occluder(self, depsgraph):
+        """Read the scene's triangles and start building their occluder (shadows from the scene)."""
         s = self.settings
-        self._pool = ThreadPoolExecutor(max(1, s.threads), thread_name_prefix="prt-bake")
-        scene_occluder = None
-        parts = []
+        self._parts, self._occluder = [], None
         if s.shadows and not s.self_shadow_only:
-            parts = _scene_parts(depsgraph)
-            vertices, triangles = _concatenate(parts)
+            self._parts = _scene_parts(depsgraph, self._reads)
+            vertices, triangles = _concatenate(self._parts)
             if len(triangles):
-                scene_occluder = _LazyOccluder(self.backend, vertices, triangles)
+                self._occluder = _LazyOccluder(self.backend, vertices, triangles)
+                self._occluder.start(self._pool)
+
+    def _prepare_occluders(self):
+        s = self.settings
+        scene_occluder, parts = self._occluder, self._parts
         for plan in self.plans:
             occluder, boxes = None, None
             if s.shadows:

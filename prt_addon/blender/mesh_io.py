@@ -148,9 +148,30 @@ def bake_points(mesh, matrix4):
         )
     corner_verts = read_corner_verts(mesh)
     corner_normals = np.ascontiguousarray(read_corner_normals(mesh))
+    # Fast path (e.g. a flat plane): every vertex has corners and all its corners carry the same
+    # normal bits. Then the np.unique below would give exactly these normals in vertex order.
+    bits = corner_normals.view(np.int32)
+    none = np.int64(1) << 40  # outside the int32 range: "no corner"
+    first = np.full((len(positions), 3), none, dtype=np.int64)
+    first[corner_verts] = bits  # one of the vertex's corners' normal (whichever is written last)
+    if len(corner_verts) and (first[:, 0] != none).all() and np.array_equal(first[corner_verts], bits):
+        normals = first.astype(np.int32).view(np.float32)
+        return BakePoints(
+            "POINT", transform_points(matrix4, positions), transform_normals(matrix4, normals),
+            None, len(positions),
+        )
     # Corners that share a vertex and a normal (smooth regions) get the same transfer: bake once.
-    rows = np.column_stack([corner_verts, corner_normals.view(np.int32)])
-    unique, inverse = np.unique(rows, axis=0, return_inverse=True)
+    rows = np.column_stack([corner_verts, bits])
+    # np.unique(rows, axis=0, return_inverse=True), computed with a lexsort of the int32 columns
+    # (same order, same result; np.unique sorts the rows as structured items, ~5 times slower).
+    order = np.lexsort((rows[:, 3], rows[:, 2], rows[:, 1], rows[:, 0]))
+    ordered = rows[order]
+    new = np.empty(len(rows), dtype=bool)
+    new[:1] = True
+    np.any(ordered[1:] != ordered[:-1], axis=1, out=new[1:])
+    unique = ordered[new]
+    inverse = np.empty(len(rows), dtype=np.intp)
+    inverse[order] = np.cumsum(new) - 1
     vert = unique[:, 0]
     normals = np.ascontiguousarray(unique[:, 1:]).view(np.float32)
     if np.array_equal(vert, np.arange(len(positions))):  # sorted by vertex: exactly one normal each

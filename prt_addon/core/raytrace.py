@@ -104,12 +104,19 @@ def _triangle_normals(v, t):
     return np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
 
 
+def _used_vertices(t, count):
+    """Sorted unique vertex indices of triangles t (np.unique(t), without its sort)."""
+    mask = np.zeros(max(count, int(t.max()) + 1 if len(t) else 0), dtype=bool)
+    mask[t.ravel()] = True
+    return np.flatnonzero(mask)
+
+
 def is_planar(vertices, triangles, rel_tol=1e-6):
     v = np.asarray(vertices, dtype=np.float64)
     t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     if len(t) == 0:
         return False
-    used = v[np.unique(t)]
+    used = v[_used_vertices(t, len(v))]
     scale = np.linalg.norm(used.max(axis=0) - used.min(axis=0))
     normal = _triangle_normals(v, t).sum(axis=0)
     length = np.linalg.norm(normal)
@@ -133,7 +140,10 @@ def is_closed_convex(vertices, triangles, rel_tol=1e-6):
     t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     if len(t) < 4:
         return False
-    used = np.unique(t)
+    used = _used_vertices(t, len(v))
+    # The Euler test below (E = 3 F / 2 once closed) is cheap: done first, as most meshes fail it.
+    if len(used) - (3 * len(t)) // 2 + len(t) != 2:
+        return False
     scale = np.linalg.norm(v[used].max(axis=0) - v[used].min(axis=0))
     if scale == 0.0:
         return False
