@@ -18,6 +18,7 @@ import numpy as np
 from ..core import raytrace, transfer
 from ..core.directions import KINDS, make_directions
 from . import mesh_io
+from .panels import PRTSubPanel
 
 BACKENDS = ("AUTO", "EMBREE", "BVHTREE")
 MAX_ORDER = 16
@@ -705,13 +706,9 @@ class PRT_OT_bake_transfer(bpy.types.Operator):
         return {"CANCELLED"}
 
 
-class PRT_PT_bake(bpy.types.Panel):
-    bl_idname = "PRT_PT_bake"
+class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
+    bl_idname = "VIEW3D_PT_prt_bake"
     bl_label = "Bake Transfer"
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "PRT"
-    bl_parent_id = "VIEW3D_PT_prt"
 
     def draw(self, context):
         layout = self.layout
@@ -758,7 +755,7 @@ class PRT_PT_bake(bpy.types.Panel):
                 box.label(text=line)
 
 
-CLASSES = [PRT_PG_bake_settings, PRT_OT_bake_transfer, PRT_PT_bake]
+CLASSES = [PRT_PG_bake_settings, PRT_OT_bake_transfer, VIEW3D_PT_prt_bake]
 
 
 def register_extra():
