@@ -416,6 +416,69 @@ def test_corner_domain_flat_faces(bpy_module, lit_scene):
     assert seen == 2
 
 
+def _pixel_of(bpy, scene, point, size):
+    """(row, col) of a world point in a size x size render of the scene camera."""
+    cam = scene.camera
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    vp = np.array(cam.calc_matrix_camera(depsgraph, x=size, y=size)) @ np.array(cam.matrix_world.inverted())
+    clip = vp @ np.r_[point, 1.0]
+    return (1.0 - clip[1] / clip[3]) * 0.5 * size, (clip[0] / clip[3] + 1.0) * 0.5 * size
+
+
+def _evaluated_centre(bpy, obj):
+    """World-space mean of the vertices Blender evaluates for obj (modifiers, shape keys)."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    mesh = obj.evaluated_get(depsgraph).data
+    mw = np.array(obj.matrix_world)
+    return mw[:3, :3] @ local_positions(mesh).mean(axis=0) + mw[:3, 3]
+
+
+def test_deformed_objects_are_drawn_as_the_viewport_shows_them(bpy_module, lit_scene):
+    """Shape keys and modifiers that move vertices but keep the topology (the bake uses the same
+    evaluated mesh): the overlay covers the evaluated mesh, follows a changed shape-key value
+    without a stale cache, and a second object sharing the mesh keeps its own deformation."""
+    bpy = bpy_module
+    size = 128
+    set_light(lit_scene, sun_sky_light(3))
+    lit_scene.prt_display.albedo_source = "WHITE"
+    obj = bake_sphere(bpy, 3, radius=0.5, segments=24, rings=12)
+    obj.location = (-1.2, 0.0, 0.0)
+    twin = bpy.data.objects.new("Twin", obj.data)  # same mesh, no modifier
+    lit_scene.collection.objects.link(twin)
+    twin.location = (1.2, 0.0, 0.0)
+    obj.shape_key_add(name="Basis")
+    up = obj.shape_key_add(name="Up")
+    co = local_positions(obj.data)
+    co[:, 2] += 1.0
+    up.data.foreach_set("co", co.astype(np.float32).ravel())
+
+    def coverage_centres():
+        bpy.context.view_layer.update()
+        alpha = api.render_view(lit_scene, size, size)[..., 3] > 0
+        out = []
+        for half in (slice(0, size // 2), slice(size // 2, size)):  # obj on the left, twin right
+            rows, cols = np.nonzero(alpha[:, half])
+            out.append((rows.mean(), cols.mean() + half.start))
+        return out
+
+    import prt_addon.api as api
+
+    for value, strength in ((0.0, 0.0), (1.0, 0.0), (0.3, 0.0), (0.3, 0.8)):
+        up.value = value
+        if strength:
+            displace = obj.modifiers.new("Displace", "DISPLACE")
+            displace.direction = "Z"
+            displace.strength = strength
+        centres = coverage_centres()
+        for target, (row, col) in zip((obj, twin), centres):
+            want_row, want_col = _pixel_of(bpy, lit_scene, _evaluated_centre(bpy, target), size)
+            assert abs(row - want_row) < 1.0 and abs(col - want_col) < 1.0, (target.name, value, strength)
+    # The last case moved obj (shape key + modifier) and not twin (shape key only): different.
+    assert _evaluated_centre(bpy, obj)[2] - _evaluated_centre(bpy, twin)[2] > 0.3
+    _row, _col = _pixel_of(bpy, lit_scene, np.array([-1.2, 0.0, 0.3]), size)
+    assert abs(centres[0][0] - _row) > 5.0  # the undeformed-plus-shape-key position is not drawn
+
+
 def test_world_projection_seam(bpy_module, lit_scene):
     """With no override the display reads world.current_world_coeffs (issue 3): a constant
     colour world c lights an unshadowed sphere to radiance c everywhere (white furnace)."""
@@ -579,6 +642,7 @@ def test_viewport_callback_draws_with_exposure_and_toggle(bpy_module, lit_scene,
         region_data=types.SimpleNamespace(perspective_matrix=mathutils.Matrix((proj @ view).tolist())),
         view_layer=bpy_module.context.view_layer,
         space_data=None,
+        evaluated_depsgraph_get=bpy_module.context.evaluated_depsgraph_get,
     )
     monkeypatch.setattr(display, "bpy", types.SimpleNamespace(context=context, types=bpy_module.types))
 

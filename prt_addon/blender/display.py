@@ -378,8 +378,9 @@ def light_ubo_bytes(light_local, count):
 class MeshEntry:
     """GPU data of one baked mesh: vertex buffer, one batch per material slot, transfer texture."""
 
-    def __init__(self, key, info, batches, texture, per_row, elements, triangles):
+    def __init__(self, key, info, batches, texture, per_row, elements, triangles, positions=None):
         self.key = key
+        self.positions = positions  # the deformed positions drawn (None: the mesh's own)
         self.info = info
         self.batches = batches  # list of (material_index, GPUBatch)
         self.texture = texture
@@ -396,7 +397,7 @@ class ObjectState:
         self.light_key = None
 
 
-_mesh_cache = {}  # mesh pointer -> MeshEntry
+_mesh_cache = {}  # (mesh pointer, object pointer or 0 when undeformed) -> MeshEntry
 _object_cache = {}  # object pointer -> ObjectState
 
 
@@ -456,13 +457,29 @@ def element_albedo(mesh, domain, mode, attr_name):
     return np.where(counts > 0, sums / np.maximum(counts, 1), 1.0).astype(np.float32)
 
 
-def build_mesh_entry(mesh, info, albedo_mode="MATERIAL", albedo_attr=""):
-    """Upload a baked mesh: vertex buffer per element, index buffers per material, transfer."""
+def deformed_positions(obj, depsgraph):
+    """(vertices, 3) float32 local positions of obj's evaluated mesh when its modifiers or shape
+    keys move the vertices but keep the topology (what the viewport shows, and what the bake
+    used), else None: the mesh's own positions are drawn (no deformation; no depsgraph; or a
+    topology that differs, which the bake refuses, e.g. a modifier added after baking)."""
+    mesh = obj.data
+    if depsgraph is None or not (mesh.shape_keys or any(m.show_viewport for m in obj.modifiers)):
+        return None
+    mesh_eval = obj.evaluated_get(depsgraph).data
+    counts = (len(mesh.vertices), len(mesh.loops), len(mesh.polygons))
+    if (len(mesh_eval.vertices), len(mesh_eval.loops), len(mesh_eval.polygons)) != counts:
+        return None
+    return _mesh_io.read_positions(mesh_eval)
+
+
+def build_mesh_entry(mesh, info, albedo_mode="MATERIAL", albedo_attr="", positions=None):
+    """Upload a baked mesh: vertex buffer per element, index buffers per material, transfer.
+    positions: (vertices, 3) local positions to draw instead of the mesh's (deformed_positions)."""
     key = _cache_key(mesh, info, albedo_mode, albedo_attr)
     n = element_count(mesh, info.domain)
-    positions = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-    mesh.attributes["position"].data.foreach_get("vector", positions)
-    positions = positions.reshape(-1, 3)
+    deformed = positions
+    if positions is None:
+        positions = _mesh_io.read_positions(mesh)
     mesh.calc_loop_triangles()
     ntri = len(mesh.loop_triangles)
     tris = np.empty(ntri * 3, dtype=np.int32)
@@ -502,7 +519,7 @@ def build_mesh_entry(mesh, info, albedo_mode="MATERIAL", albedo_attr=""):
             seq = np.ascontiguousarray(tris[order_idx[s:e]])
             ibo = gpu.types.GPUIndexBuf(type="TRIS", seq=seq)
             batches.append((int(sorted_mat[s]), gpu.types.GPUBatch(type="TRIS", buf=vbo, elem=ibo)))
-    return MeshEntry(key, info, batches, texture, per_row, n, ntri)
+    return MeshEntry(key, info, batches, texture, per_row, n, ntri, deformed)
 
 
 def _transfer_texture(transfer, count):
@@ -522,12 +539,18 @@ def _transfer_texture(transfer, count):
     return tex, per_row
 
 
-def get_mesh_entry(mesh, info, albedo_mode, albedo_attr):
-    ptr = mesh.as_pointer()
+def get_mesh_entry(mesh, info, albedo_mode, albedo_attr, obj=None, depsgraph=None):
+    """The cached batches of `mesh`, or of `obj` when its modifiers or shape keys deform it:
+    those are drawn at their evaluated positions, read again at every draw and uploaded again
+    when they moved (an animated armature, a shape key value being dragged)."""
+    positions = None if obj is None else deformed_positions(obj, depsgraph)
+    ptr = (mesh.as_pointer(), 0 if positions is None else obj.as_pointer())
     key = _cache_key(mesh, info, albedo_mode, albedo_attr)
     entry = _mesh_cache.get(ptr)
-    if entry is None or entry.key != key:
-        entry = build_mesh_entry(mesh, info, albedo_mode, albedo_attr)
+    if entry is None or entry.key != key or (
+        positions is not None and not np.array_equal(entry.positions, positions)
+    ):
+        entry = build_mesh_entry(mesh, info, albedo_mode, albedo_attr, positions)
         _mesh_cache[ptr] = entry
     return entry
 
@@ -584,10 +607,12 @@ def baked_objects(scene, view_layer=None, viewport=None):
     return out
 
 
-def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0):
+def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, depsgraph=None):
     """Draw `objects` with the PRT shader into the bound framebuffer. Returns the number drawn.
 
     view_projection: 4x4 (mathutils.Matrix or array) world -> clip. The caller sets depth state.
+    depsgraph: the evaluated depsgraph whose deformed meshes are drawn (deformed_positions);
+    None draws every mesh undeformed.
     """
     import mathutils
 
@@ -602,7 +627,7 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0):
         info, _problem = bake_status(obj.data, check_topology=False)
         if info is None:
             continue
-        entry = get_mesh_entry(obj.data, info, albedo_mode, albedo_attr)
+        entry = get_mesh_entry(obj.data, info, albedo_mode, albedo_attr, obj, depsgraph)
         if not entry.batches:
             continue
         shader = get_shader(info.count)
@@ -664,6 +689,7 @@ def _draw_callback():
             objects,
             scale=exposure_scale(scene),
             depth_bias=VIEWPORT_DEPTH_BIAS,
+            depsgraph=context.evaluated_depsgraph_get(),
         )
     finally:
         gpu.state.depth_mask_set(depth_mask)
@@ -677,7 +703,7 @@ def _prune(objects, slack=8):
         return
     meshes = {obj.data.as_pointer() for obj in objects}
     objs = {obj.as_pointer() for obj in objects}
-    for key in [k for k in _mesh_cache if k not in meshes]:
+    for key in [k for k in _mesh_cache if k[0] not in meshes or (k[1] and k[1] not in objs)]:
         del _mesh_cache[key]
     for key in [k for k in _object_cache if k not in objs]:
         del _object_cache[key]
@@ -736,7 +762,9 @@ def _on_depsgraph_update(_scene, depsgraph):
         elif isinstance(ident, bpy.types.Object) and ident.type == "MESH":
             mesh = ident.original.data
         if mesh is not None:
-            _mesh_cache.pop(mesh.as_pointer(), None)
+            ptr = mesh.as_pointer()
+            for key in [k for k in _mesh_cache if k[0] == ptr]:
+                del _mesh_cache[key]
             _mesh_io.forget_cached_fingerprints(mesh)
 
 

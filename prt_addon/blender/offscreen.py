@@ -79,6 +79,8 @@ def render_view(scene=None, width=None, height=None, camera=None, objects=None, 
     if not ensure_gpu():
         raise RuntimeError("the gpu module cannot draw in this session")
     view, projection = camera_matrices(scene, width, height, camera)
+    # Deformed objects as the context's depsgraph evaluates them (another scene's: undeformed).
+    depsgraph = bpy.context.evaluated_depsgraph_get() if scene == bpy.context.scene else None
     if objects is None:
         view_layer = bpy.context.view_layer if scene == bpy.context.scene else scene.view_layers[0]
         objects = display.baked_objects(scene, view_layer)
@@ -90,7 +92,7 @@ def render_view(scene=None, width=None, height=None, camera=None, objects=None, 
             gpu.state.depth_test_set("LESS_EQUAL")
             gpu.state.depth_mask_set(True)
             try:
-                display.draw_objects(scene, projection @ view, objects, scale=scale)
+                display.draw_objects(scene, projection @ view, objects, scale=scale, depsgraph=depsgraph)
             finally:
                 gpu.state.depth_test_set("NONE")
             buf = fb.read_color(0, 0, width, height, 4, 0, "FLOAT")
