@@ -316,6 +316,38 @@ def test_topology_edit_is_stale(empty_scene, bpy_module):
     assert api.bake_status(obj) == "stale"
 
 
+def test_removed_or_converted_transfer_attribute_is_reported(empty_scene, bpy_module):
+    """A user deleting or converting one prt_tKK attribute: the bake is stale (not 'fresh' with
+    garbage), the display does not draw it, and mesh_io.read_transfer returns None."""
+    bpy = bpy_module
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2)
+    obj = bpy.context.object
+    from prt_addon import api
+    from prt_addon.blender import display, mesh_io
+
+    api.bake([obj], order=3, samples=32, shadows=False)  # 9 coefficients: prt_t00 .. prt_t02
+    assert api.bake_status(obj) == "fresh"
+    info, problem = display.bake_status(obj.data)
+    assert info.order == 3 and info.count == 3 and problem == ""
+    elements = len(obj.data.loops) if info.domain == "CORNER" else len(obj.data.vertices)
+    assert display.read_transfer(obj.data, info).shape == (elements, 12)
+    assert mesh_io.read_transfer(obj.data).shape == (elements, 9)
+
+    obj.data.attributes.remove(obj.data.attributes["prt_t01"])
+    state, reason = api.bake_status(obj, reason=True)
+    assert state == "stale" and "prt_t01" in reason
+    assert display.bake_status(obj.data) == (None, "attribute prt_t01 is missing or changed")
+    assert mesh_io.read_transfer(obj.data) is None
+
+    api.bake([obj], order=3, samples=32, shadows=False)
+    assert api.bake_status(obj) == "fresh"
+    obj.data.attributes.new("prt_t02_tmp", "BYTE_COLOR", info.domain)
+    obj.data.attributes.remove(obj.data.attributes["prt_t02"])
+    obj.data.attributes["prt_t02_tmp"].name = "prt_t02"  # same name, wrong type
+    assert api.bake_status(obj) == "stale"
+    assert display.bake_status(obj.data)[0] is None
+
+
 def _scene_values(bpy, mesh_io, factor):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     ground, monkey = _monkey_on_ground(bpy, ground_cuts=6)

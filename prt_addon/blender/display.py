@@ -32,7 +32,7 @@ from . import mesh_io as _mesh_io
 from . import world as _world
 
 ATTR_PREFIX = _mesh_io.PREFIX
-RECORD_KEY = "prt_bake"
+RECORD_KEY = _mesh_io.RECORD
 # GL guarantees (and llvmpipe offers) 16 vertex attributes; position and albedo use two.
 MAX_VERTEX_ATTRIBUTES = 16
 MAX_ATTRIBUTE_TRANSFER = MAX_VERTEX_ATTRIBUTES - 2  # 14 vec4 = 56 coefficients: orders <= 7
@@ -49,11 +49,7 @@ attribute_count = _mesh_io.attribute_count
 # ---------------------------------------------------------------------------------------------
 
 
-class BakeInfo:
-    __slots__ = ("order", "count", "domain", "record")
-
-    def __init__(self, order, count, domain, record):
-        self.order, self.count, self.domain, self.record = order, count, domain, record
+BakeInfo = _mesh_io.BakeRecord  # order, count, domain, record
 
 
 def bake_status(mesh, check_topology=True):
@@ -61,25 +57,10 @@ def bake_status(mesh, check_topology=True):
 
     A stale bake (topology changed) still returns its BakeInfo, with the problem set; the draw
     path skips the topology check (check_topology=False) to stay cheap per frame."""
-    record = mesh.get(RECORD_KEY) if mesh is not None else None
-    if record is None:
-        return None, "not baked"
-    try:
-        order = int(record["order"])
-        count = int(record["count"])
-        domain = str(record["domain"])
-    except (KeyError, TypeError, ValueError):
-        return None, "bake record is incomplete"
-    if order < 1 or count != attribute_count(order) or domain not in ("POINT", "CORNER"):
-        return None, "bake record is inconsistent"
-    for k in range(count):
-        attr = mesh.attributes.get(attribute_name(k))
-        if attr is None:
-            return None, f"attribute {attribute_name(k)} is missing"
-        if attr.data_type != "FLOAT_COLOR" or attr.domain != domain:
-            return None, f"attribute {attribute_name(k)} is not a {domain} FLOAT_COLOR attribute"
-    stale = check_topology and topology_changed(mesh, record)
-    info = BakeInfo(order, count, domain, record)
+    info, problem = _mesh_io.read_bake_record(mesh)
+    if info is None:
+        return None, problem
+    stale = check_topology and topology_changed(mesh, info.record)
     return info, ("topology changed since the bake: re-bake" if stale else "")
 
 
@@ -98,11 +79,7 @@ def element_count(mesh, domain):
 
 def read_transfer(mesh, info):
     """(elements, 4 * count) float32: t_0 .. t_{4 count - 1} per element (padding channels 0)."""
-    n = element_count(mesh, info.domain)
-    out = np.empty((info.count, n * 4), dtype=np.float32)
-    for k in range(info.count):
-        mesh.attributes[attribute_name(k)].data.foreach_get("color", out[k])
-    return np.ascontiguousarray(out.reshape(info.count, n, 4).transpose(1, 0, 2).reshape(n, 4 * info.count))
+    return _mesh_io.read_transfer(mesh, info, padded=True)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -301,21 +301,49 @@ def write_bakes(items):
         raise
 
 
-def read_transfer(mesh):
-    """(E, n*n) float32 coefficients of the last bake, or None."""
-    record = mesh.get(RECORD)
+@dataclass
+class BakeRecord:
+    """The parsed mesh["prt_bake"] of a bake whose attributes are all present (docs/storage.md)."""
+
+    order: int
+    count: int
+    domain: str
+    record: object  # the IDProperty group itself
+
+
+def read_bake_record(mesh):
+    """(BakeRecord, "") when the mesh holds a complete bake (stale or not: the topology is not
+    checked here), else (None, why not)."""
+    record = mesh.get(RECORD) if mesh is not None else None
     if record is None:
-        return None
-    order, count, domain = int(record["order"]), int(record["count"]), record["domain"]
-    names = [attribute_name(k) for k in range(count)]
-    if any(mesh.attributes.get(n) is None or mesh.attributes[n].domain != domain for n in names):
-        return None
+        return None, "not baked"
+    try:
+        order, count, domain = int(record["order"]), int(record["count"]), str(record["domain"])
+    except (KeyError, TypeError, ValueError):
+        return None, "the bake record is incomplete"
+    if order < 1 or count != attribute_count(order) or domain not in ("POINT", "CORNER"):
+        return None, "the bake record is inconsistent"
+    for k in range(count):
+        attr = mesh.attributes.get(attribute_name(k))
+        if attr is None or attr.domain != domain or attr.data_type != "FLOAT_COLOR":
+            return None, f"attribute {attribute_name(k)} is missing or changed"
+    return BakeRecord(order, count, domain, record), ""
+
+
+def read_transfer(mesh, bake=None, padded=False):
+    """(E, n*n) float32 coefficients of the last bake, or None when there is none usable.
+    bake: its BakeRecord if already read; padded: keep the 4 * count channels (zero padding)."""
+    if bake is None:
+        bake, _problem = read_bake_record(mesh)
+        if bake is None:
+            return None
+    names = [attribute_name(k) for k in range(bake.count)]
     size = len(mesh.attributes[names[0]].data)
-    packed = np.empty((count, size * 4), dtype=np.float32)
+    packed = np.empty((bake.count, size * 4), dtype=np.float32)
     for k, name in enumerate(names):
         mesh.attributes[name].data.foreach_get("color", packed[k])
-    values = packed.reshape(count, size, 4).transpose(1, 0, 2).reshape(size, count * 4)
-    return np.ascontiguousarray(values[:, : order * order])
+    values = packed.reshape(bake.count, size, 4).transpose(1, 0, 2).reshape(size, bake.count * 4)
+    return np.ascontiguousarray(values if padded else values[:, : bake.order * bake.order])
 
 
 # --- status --------------------------------------------------------------------------------
@@ -347,23 +375,14 @@ def bake_status(mesh, use_cache=False):
     """('NONE' | 'FRESH' | 'STALE', reason) of the transfer stored on `mesh`."""
     if mesh is None:
         return "NONE", "not a mesh"
-    record = mesh.get(RECORD)
-    if record is None:
+    if mesh.get(RECORD) is None:
         return "NONE", "not baked"
     if getattr(mesh, "is_editmode", False):
         return "STALE", "in Edit Mode: leave Edit Mode to check the bake"
-    try:
-        order, count, domain = int(record["order"]), int(record["count"]), str(record["domain"])
-        fingerprint = str(record["fingerprint"])
-    except (KeyError, TypeError, ValueError):
-        return "STALE", "the bake record is incomplete"
+    bake, problem = read_bake_record(mesh)
+    if bake is None:
+        return "STALE", f"{problem}: bake again"
     current = cached_fingerprint(mesh) if use_cache else topology_fingerprint(mesh)
-    if current != fingerprint:
+    if current != str(bake.record.get("fingerprint")):
         return "STALE", "the topology changed since the bake: bake again"
-    for k in range(count):
-        attr = mesh.attributes.get(attribute_name(k))
-        if attr is None or attr.domain != domain or attr.data_type != "FLOAT_COLOR":
-            return "STALE", f"attribute {attribute_name(k)} is missing or changed: bake again"
-    if count != attribute_count(order):
-        return "STALE", "the bake record is inconsistent: bake again"
-    return "FRESH", f"order {order}, {domain.lower()} domain"
+    return "FRESH", f"order {bake.order}, {bake.domain.lower()} domain"
