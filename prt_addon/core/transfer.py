@@ -18,12 +18,17 @@ Work skipped (counted in TransferStats, never traced):
   boxes of the other occluders; a point none of whose boxes reaches above its tangent plane and
   whose own mesh cannot occlude it is unshadowed.
 
-Error estimate: the direction set is split into two interleaved halves A (even k) and B (odd k),
-each an unbiased quadrature on its own. t = (|A| t_A + |B| t_B) / N, and |t_A - t_B| / 2 is, for
-i.i.d. directions, an unbiased proxy of the standard error of t (Var(t_A - t_B) = 4 Var(t) when
-|A| = |B|). For low-discrepancy sets (Fibonacci) it overestimates the error of the full set,
-because halving the set costs more than a factor sqrt(2), so error_calibration() scales it by
-a factor fitted to measurements (docs/accuracy.md: then within 0.9 to 1.8 of the true error). The per-point figure is the L2 norm over the coefficients.
+Error estimate (batch means): the direction set is split into K interleaved groups G_g (k mod K),
+each an unbiased quadrature t_g on its own, t = sum_g |G_g| t_g / N, and
+
+    SE(t)^2 ~ sum_g (t_g - mean_g t_g)^2 / (K (K - 1))
+
+(for K = 2: SE = |t_A - t_B| / 2). For i.i.d. directions (UNIFORM) this is the unbiased standard
+error, with K = 8 groups: with two, one unlucky set can make both halves agree while both are
+wrong (measured: estimate 0.15x the true error). The Fibonacci and stratified sets use K = 2: for
+them the groups are worse than the whole by more than sqrt(K) (quasi-Monte-Carlo error falls
+faster than N^-1/2), which error_calibration() corrects for Fibonacci by a fitted factor
+(docs/accuracy.md). The per-point figure is the L2 norm over the coefficients.
 
 Memory: points are processed in slices of at most chunk_rays / threads candidate (point,
 direction) pairs per thread. Each pair costs about RAY_BYTES of buffers, so the working set is
@@ -126,7 +131,7 @@ class TransferStats:
 @dataclass
 class TransferResult:
     coeffs: np.ndarray  # (P, n*n) float32
-    error: np.ndarray  # (P,) float32: per-point |t_A - t_B| / 2 (L2 over coefficients)
+    error: np.ndarray  # (P,) float32: per-point standard-error estimate (L2 over coefficients)
     stats: TransferStats = field(default_factory=TransferStats)
 
     def error_rms(self):
@@ -190,13 +195,14 @@ class TransferComputation:
             raise ValueError("positions and normals must have the same length")
         count = len(self.positions)
         self.occluder = occluder
-        # Interleaved halves A = even k, B = odd k, stored A first so that each half is a slice.
+        # Interleaved error groups g = k mod K, stored group by group so that each is a slice.
         dirs = directions.directions
         basis = directions.basis(self.order)
         self.n_dirs = len(dirs)
-        self.n_a = (self.n_dirs + 1) // 2
+        groups = min(error_groups(directions.kind), self.n_dirs)
+        self.group_bounds = np.cumsum([0] + [len(range(g, self.n_dirs, groups)) for g in range(groups)])
         self.error_scale = error_calibration(directions.kind, self.n_dirs, self.order)
-        perm = np.concatenate([np.arange(0, self.n_dirs, 2), np.arange(1, self.n_dirs, 2)])
+        perm = np.concatenate([np.arange(g, self.n_dirs, groups) for g in range(groups)])
         self.dirs64 = np.ascontiguousarray(dirs[perm])
         self.dirs16 = _rays16(self.dirs64)
         self.dirs64T = np.ascontiguousarray(self.dirs64.T)
@@ -326,8 +332,8 @@ class TransferComputation:
         stats = TransferStats()
         n_pts = hi - lo
         nn = self.order * self.order
-        sum_a = np.zeros((n_pts, nn))
-        sum_b = np.zeros((n_pts, nn))
+        bounds = self.group_bounds
+        sums = np.zeros((len(bounds) - 1, n_pts, nn))  # per error group
         needs = self._needs_rays(lo, hi)
         for k0 in range(0, self.n_dirs, self.dir_block):
             k1 = min(self.n_dirs, k0 + self.dir_block)
@@ -350,18 +356,19 @@ class TransferComputation:
                 if n_hit:
                     hit_flat = np.compress(hit, flat, out=self._workspace()["index"][:n_hit])
                     weight.reshape(-1)[hit_flat] = 0.0  # (np.put is several times slower)
-            # Split the block at the A/B boundary (self.n_a) of the permuted direction order.
-            split = min(max(self.n_a - k0, 0), k1 - k0)
-            if split > 0:
-                _matmul_rows(weight[:, :split], self.basis[k0 : k0 + split], sum_a, accumulate=True)
-            if split < k1 - k0:
-                _matmul_rows(weight[:, split:], self.basis[k0 + split : k1], sum_b, accumulate=True)
-        n_b = self.n_dirs - self.n_a
+            # Split the block at the group boundaries of the permuted direction order.
+            for g in range(len(bounds) - 1):
+                a, b = max(bounds[g], k0), min(bounds[g + 1], k1)
+                if a < b:
+                    _matmul_rows(weight[:, a - k0 : b - k0], self.basis[a:b], sums[g], accumulate=True)
         scale = 4.0  # 4 pi / N * (1 / pi) per direction, times N
-        t = (sum_a + sum_b) * (scale / self.n_dirs)
-        if n_b:
-            diff = sum_a / self.n_a - sum_b / n_b
-            err = (0.5 * scale * self.error_scale) * np.sqrt(np.einsum("ij,ij->i", diff, diff))
+        t = sums.sum(axis=0) * (scale / self.n_dirs)
+        groups = len(bounds) - 1
+        if groups > 1:
+            means = sums / np.diff(bounds)[:, None, None]  # each group's estimate of t / scale
+            dev = means - means.mean(axis=0)
+            se2 = np.einsum("gij,gij->i", dev, dev) / (groups * (groups - 1))
+            err = (scale * self.error_scale) * np.sqrt(se2)
         else:
             err = np.full(n_pts, np.inf)
         return t, err, stats
@@ -416,6 +423,12 @@ class TransferComputation:
         finally:
             self.close()
         return self.result()
+
+
+def error_groups(kind):
+    """K, the number of interleaved groups of the batch-means error estimate (module docstring):
+    8 for i.i.d. directions (UNIFORM), 2 (halves) for the Fibonacci and stratified sets."""
+    return 8 if str(kind).upper() == "UNIFORM" else 2
 
 
 def error_calibration(kind, count, order):
