@@ -271,14 +271,14 @@ def test_cancel():
         comp.step()
 
 
-def _peak_bytes(samples, chunk_rays):
+def _peak_bytes(samples, chunk_rays, kind="FIBONACCI", order=4):
     rng = np.random.default_rng(2)
     p = rng.normal(size=(20000, 3))
-    dirs = make_directions("FIBONACCI", samples, 0)
-    dirs.basis(4)
+    dirs = make_directions(kind, samples, 0)
+    dirs.basis(order)
     tracemalloc.start()
-    comp = transfer.TransferComputation(p, p, dirs, 4, PlaneOccluder((0, 0, -50), (0, 0, 1)), offset=1e-3,
-                                        chunk_rays=chunk_rays, threads=2)
+    comp = transfer.TransferComputation(p, p, dirs, order, PlaneOccluder((0, 0, -50), (0, 0, 1)),
+                                        offset=1e-3, chunk_rays=chunk_rays, threads=2)
     base = tracemalloc.get_traced_memory()[0]
     tracemalloc.reset_peak()
     comp.run()
@@ -296,6 +296,17 @@ def test_peak_memory_is_bounded_by_the_chunk_size():
     bound = chunk * (transfer.RAY_BYTES + 50) + 20000 * 68
     assert small < bound and large < bound, (small, large, bound)
     assert large < 1.3 * small  # 8 times the samples, about the same memory
+
+
+def test_peak_memory_bound_holds_at_high_order_few_samples_and_eight_groups():
+    """Order 16 (256 coefficients) with 16 uniform directions (8 error groups): the per-point
+    accumulators, (8 + 3) * 256 float64 = 22 kB per point, count in the slice budget, so the
+    working set stays within the same bound (before, a slice of 16384 points took ~0.4 GB)."""
+    chunk = 1 << 16
+    peak = _peak_bytes(16, chunk, kind="UNIFORM", order=16)
+    outputs = 20000 * (256 * 4 + 4)  # coefficients float32 + errors
+    bound = chunk * (transfer.RAY_BYTES + 50) + outputs
+    assert peak < bound, (peak, bound)
 
 
 def test_local_frame_rotation_and_mirror():

@@ -31,9 +31,11 @@ faster than N^-1/2), which error_calibration() corrects for Fibonacci by a fitte
 (docs/accuracy.md). The per-point figure is the L2 norm over the coefficients.
 
 Memory: points are processed in slices of at most chunk_rays / threads candidate (point,
-direction) pairs per thread. Each pair costs about RAY_BYTES of buffers, so the working set is
-about chunk_rays * RAY_BYTES (21 MB at the default 2^18), independent of the sample count and of
-the mesh size; the outputs (P x n^2 float32 plus P error values) come on top. When one point
+direction) pairs per thread. Each pair costs about RAY_BYTES of buffers and each point of a
+slice (K + 3) n^2 float64 accumulators (the K group sums, t, and the estimate's temporaries),
+counted in the same budget: the working set is about chunk_rays * RAY_BYTES (21 MB at the
+default 2^18), independent of the sample count, the order and the mesh size; the outputs
+(P x n^2 float32 plus P error values) come on top. When one point
 alone has more directions than a slice holds, its directions are processed in blocks.
 
 Threads: `threads` worker threads each take whole slices (build the rays, trace them, project
@@ -217,7 +219,8 @@ class TransferComputation:
             self.threads = max(1, min(self.threads, int(getattr(occluder, "max_threads", 1))))
         # chunk_rays candidate rays in flight in all threads together.
         per_thread = max(1, self.chunk_rays // self.threads)
-        self.points_per_slice = max(1, per_thread // self.n_dirs)
+        accumulator_bytes = (groups + 3) * self.order * self.order * 8  # per point of a slice
+        self.points_per_slice = max(1, per_thread * RAY_BYTES // (self.n_dirs * RAY_BYTES + accumulator_bytes))
         self.dir_block = min(self.n_dirs, per_thread)
         self.coeffs = np.zeros((count, self.order * self.order), dtype=np.float32)
         self.error = np.zeros(count, dtype=np.float32)
@@ -362,12 +365,15 @@ class TransferComputation:
                 if a < b:
                     _matmul_rows(weight[:, a - k0 : b - k0], self.basis[a:b], sums[g], accumulate=True)
         scale = 4.0  # 4 pi / N * (1 / pi) per direction, times N
-        t = sums.sum(axis=0) * (scale / self.n_dirs)
+        t = sums.sum(axis=0)
+        t *= scale / self.n_dirs
         groups = len(bounds) - 1
         if groups > 1:
-            means = sums / np.diff(bounds)[:, None, None]  # each group's estimate of t / scale
-            dev = means - means.mean(axis=0)
-            se2 = np.einsum("gij,gij->i", dev, dev) / (groups * (groups - 1))
+            # In place (the accumulators are the slice's largest arrays): each group's estimate
+            # of t / scale, then its deviation from their mean.
+            sums /= np.diff(bounds)[:, None, None]
+            sums -= sums.mean(axis=0)
+            se2 = np.einsum("gij,gij->i", sums, sums) / (groups * (groups - 1))
             err = (scale * self.error_scale) * np.sqrt(se2)
         else:
             err = np.full(n_pts, np.inf)
@@ -432,7 +438,8 @@ def error_groups(kind):
 
 
 def error_calibration(kind, count, order):
-    """Factor applied to the half-set estimate |t_A - t_B| / 2 (issue 6, docs/accuracy.md).
+    """Factor applied to the batch-means estimate (module docstring; for the Fibonacci set,
+    which uses two halves, that is |t_A - t_B| / 2) (issue 6, docs/accuracy.md).
 
     1 for i.i.d. and stratified sets (unbiased). For the Fibonacci set the halves are worse than
     the whole by more than sqrt(2): quasi-Monte-Carlo error falls faster than N^-1/2, and when
