@@ -224,6 +224,7 @@ def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, 
     assert modal(op, bpy.context, timer) == {"RUNNING_MODAL"}
     assert 0 < job.fraction < 1
     assert modal(op, bpy.context, types.SimpleNamespace(type="ESC", timer=None)) == {"CANCELLED"}
+    assert job._pool._shutdown and all(not t.is_alive() for t in job._pool._threads)
     assert "cancelled" in bake_ops.last_report(empty_scene)["message"]
     assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
     # The modal path also finishes a bake.
@@ -233,6 +234,31 @@ def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, 
     while result == {"RUNNING_MODAL"}:
         result = modal(op, bpy.context, timer)
     assert result == {"FINISHED"} and monkey.data["prt_bake"]["order"] == 2
+
+
+def test_scene_bvh_is_built_only_when_a_ray_can_be_traced(empty_scene, bpy_module, bake_ops):
+    """A lone convex object traces nothing, so its job never builds the scene's BVH (the
+    background build starts only when some object can trace); Suzanne can shadow itself, so
+    hers is built. A job closed before its first step leaves no worker thread behind."""
+    bpy = bpy_module
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=16, ring_count=8)
+    sphere = bpy.context.object
+    job = bake_ops.BakeJob([sphere], bake_ops.BakeSettings(order=2, samples=64, backend="EMBREE"))
+    report = job.run()
+    assert report.rays_traced == 0 and job._occluder is not None and not job._occluder.built
+
+    bpy.ops.object.select_all(action="DESELECT")
+    sphere.hide_set(True)
+    bpy.ops.mesh.primitive_monkey_add()
+    monkey = bpy.context.object
+    job = bake_ops.BakeJob([monkey], bake_ops.BakeSettings(order=2, samples=64, backend="EMBREE"))
+    report = job.run()
+    assert report.rays_traced > 0 and job._occluder.built
+
+    job = bake_ops.BakeJob([monkey], bake_ops.BakeSettings(order=2, samples=64, backend="EMBREE"))
+    job.steps().close()  # a generator closed before its first step runs no clean-up of its own
+    job.close()  # what the operator's clean-up does
+    assert job._pool._shutdown and all(not t.is_alive() for t in job._pool._threads)
 
 
 def test_failing_bake_leaves_attributes_untouched(empty_scene, bpy_module, bake_ops, mesh_io, monkeypatch):
@@ -346,6 +372,10 @@ def test_removed_or_converted_transfer_attribute_is_reported(empty_scene, bpy_mo
     obj.data.attributes["prt_t02_tmp"].name = "prt_t02"  # same name, wrong type
     assert api.bake_status(obj) == "stale"
     assert display.bake_status(obj.data)[0] is None
+
+    api.bake([obj], order=3, samples=32, shadows=False)
+    del obj.data["prt_bake"]["fingerprint"]
+    assert api.bake_status(obj, reason=True) == ("stale", "the bake record is incomplete: bake again")
 
 
 def _scene_values(bpy, mesh_io, factor):

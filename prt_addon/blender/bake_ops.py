@@ -120,7 +120,7 @@ class _Plan:
     name: str
     mesh: object
     matrix: np.ndarray
-    points: mesh_io.BakePoints
+    points: object  # mesh_io.BakePoints (None until prepared)
     fingerprint: str
     offset: float
     self_occludes: bool
@@ -128,6 +128,8 @@ class _Plan:
     own_triangles: np.ndarray
     computation: object = None
     occluder: object = None
+    boxes: object = None  # (K, 2, 3) boxes of the other occluders, or None (no culling)
+    source: object = None  # (evaluated mesh, its local positions) until the points are read
 
 
 class _LazyOccluder:
@@ -144,8 +146,9 @@ class _LazyOccluder:
         self._started = None
 
     def start(self, pool):
-        """Build in the background on `pool` (Embree only: embreex releases the GIL during the
-        BVH build) while the caller prepares the rest. A failure there is not raised: the first
+        """Build in the background on `pool` (Embree only: embreex releases the GIL while it
+        builds the BVH, though not while its TriangleMesh constructor copies the arrays) while
+        the caller prepares the rest. A failure there is not raised: the first
         query builds again and raises it, as without start()."""
         if self.name == "EMBREE" and self._started is None:
             self._started = pool.submit(self._build_quietly)
@@ -262,9 +265,7 @@ class BakeJob:
         self._reads = {}  # evaluated mesh pointer -> (positions, triangles), read once
         self._pool = ThreadPoolExecutor(max(1, self.settings.threads), thread_name_prefix="prt-bake")
         try:
-            # The scene's occluder first: its BVH builds on a worker while the checks and the
-            # baked points are prepared here (docs/bake.md, "Throughput").
-            self._scene_occluder(depsgraph)
+            self._read_scene(depsgraph)
             seen_meshes = {}
             for obj in objects:
                 reason = self._check(obj, depsgraph, seen_meshes)
@@ -275,12 +276,22 @@ class BakeJob:
             if not self.plans:
                 reasons = "; ".join(f"'{n}' {r}" for n, r in self.report.skipped)
                 raise BakeError(f"nothing to bake: {reasons}")
+            self._assign_occluders()
+            # The scene's BVH builds on a worker while the baked points are prepared here
+            # (docs/bake.md, "Throughput"); not at all when no object can trace a ray.
+            scene = self._occluder
+            if scene is not None and any(self._may_trace(p) for p in self.plans if p.occluder is scene):
+                scene.start(self._pool)
+            for plan in self.plans:
+                mesh_eval, positions = plan.source
+                plan.points = mesh_io.bake_points(mesh_eval, plan.matrix, positions)
+                plan.source = None
             self.directions = make_directions(self.settings.direction_set, self.settings.samples,
                                               self.settings.seed)
-            self._prepare_occluders()
+            self._make_computations()
             self._parts = self._reads = None  # not needed any more: free the arrays
         except BaseException:
-            self._pool.shutdown(wait=False, cancel_futures=True)
+            self.close()
             raise
         self.total_points = sum(len(p.points.positions) for p in self.plans)
 
@@ -325,18 +336,17 @@ class BakeJob:
             return ("has zero size (all its vertices are at one point, or a scale of 0): "
                     "its faces have no area to bake")
         seen_meshes[mesh.name] = name
-        points = mesh_io.bake_points(mesh_eval, matrix)
         triangles = cached[1] if cached else mesh_io.read_triangles(mesh_eval)
         self._reads[mesh_eval.as_pointer()] = (positions, triangles)
         offset = max(OFFSET_REL * diagonal, OFFSET_ULP * float(np.abs(world).max()), 1e-30)
         self_occludes = True
         if self.settings.cull and not mesh_eval.has_custom_normals:
             self_occludes = not raytrace.cannot_self_occlude(world, triangles)
-        return _Plan(obj, name, mesh, matrix, points, fingerprint, offset, self_occludes,
-                     world.astype(np.float32), triangles)
+        return _Plan(obj, name, mesh, matrix, None, fingerprint, offset, self_occludes,
+                     world.astype(np.float32), triangles, source=(mesh_eval, positions))
 
-    def _scene_occluder(self, depsgraph):
-        """Read the scene's triangles and start building their occluder (shadows from the scene)."""
+    def _read_scene(self, depsgraph):
+        """Read the scene's triangles into their (not yet built) occluder (shadows from the scene)."""
         s = self.settings
         self._parts, self._occluder = [], None
         if s.shadows and not s.self_shadow_only:
@@ -344,9 +354,14 @@ class BakeJob:
             vertices, triangles = _concatenate(self._parts)
             if len(triangles):
                 self._occluder = _LazyOccluder(self.backend, vertices, triangles)
-                self._occluder.start(self._pool)
 
-    def _prepare_occluders(self):
+    @staticmethod
+    def _may_trace(plan):
+        """Whether any ray of the plan can be traced (else culling skips them all): its own mesh
+        can occlude it, other occluders exist, or culling is off."""
+        return plan.boxes is None or len(plan.boxes) > 0 or bool(plan.self_occludes)
+
+    def _assign_occluders(self):
         s = self.settings
         scene_occluder, parts = self._occluder, self._parts
         for plan in self.plans:
@@ -363,12 +378,25 @@ class BakeJob:
                         plan.self_occludes = False  # hidden from the scene: not an occluder
             if not s.cull:
                 boxes = None
-            plan.occluder = occluder
+            plan.occluder, plan.boxes = occluder, boxes
+
+    def _make_computations(self):
+        s = self.settings
+        for plan in self.plans:
             plan.computation = transfer.TransferComputation(
                 plan.points.positions, plan.points.normals, self.directions, s.order,
-                occluder=occluder, offset=plan.offset, self_occludes=plan.self_occludes,
-                other_boxes=boxes, chunk_rays=s.chunk_rays, threads=s.threads, pool=self._pool,
+                occluder=plan.occluder, offset=plan.offset, self_occludes=plan.self_occludes,
+                other_boxes=plan.boxes, chunk_rays=s.chunk_rays, threads=s.threads, pool=self._pool,
             )
+
+    def close(self):
+        """Stop the work queued for this job and its threads (idempotent). steps() does it when
+        it ends; the operator calls it too, since a generator closed before its first step never
+        runs its own clean-up."""
+        for plan in self.plans:
+            if plan.computation is not None:
+                plan.computation.close()
+        self._pool.shutdown(wait=True, cancel_futures=True)
 
     def cancel(self):
         self._cancel = True
@@ -395,9 +423,7 @@ class BakeJob:
                         break
                 comp.close()
         finally:
-            for plan in self.plans:
-                plan.computation.close()
-            self._pool.shutdown(wait=True)
+            self.close()
 
     def finish(self):
         """Write every baked mesh (all or nothing) and return the report."""
@@ -660,6 +686,8 @@ class PRT_OT_bake_transfer(bpy.types.Operator):
             context.workspace.status_text_set(None)
         if getattr(self, "_steps", None) is not None:
             self._steps.close()
+        if getattr(self, "_bake", None) is not None:
+            self._bake.close()
         _running.discard(self)
         for area in context.screen.areas if context.screen else ():
             area.tag_redraw()

@@ -130,14 +130,15 @@ class BakePoints:
     element_count: int
 
 
-def bake_points(mesh, matrix4):
+def bake_points(mesh, matrix4, positions=None):
     """BakePoints of an (evaluated) mesh whose topology matches the mesh being written.
 
     Domain: POINT when every vertex has a single normal over all its corners (mesh.normals_domain
     is POINT: all faces smooth, no sharp edges, no custom normals; or e.g. a flat plane, whose
-    corners at a vertex all share the face normal), else CORNER.
+    corners at a vertex all share the face normal), else CORNER. positions: the mesh's local
+    vertex positions if already read (read_positions).
     """
-    positions = read_positions(mesh)
+    positions = read_positions(mesh) if positions is None else positions
     if mesh.normals_domain == "POINT":
         return BakePoints(
             "POINT",
@@ -382,6 +383,8 @@ def bake_status(mesh, use_cache=False):
     bake, problem = read_bake_record(mesh)
     if bake is None:
         return "STALE", f"{problem}: bake again"
+    if "fingerprint" not in bake.record:
+        return "STALE", "the bake record is incomplete: bake again"
     current = cached_fingerprint(mesh) if use_cache else topology_fingerprint(mesh)
     if current != str(bake.record.get("fingerprint")):
         return "STALE", "the topology changed since the bake: bake again"
