@@ -479,6 +479,40 @@ def test_deformed_objects_are_drawn_as_the_viewport_shows_them(bpy_module, lit_s
     assert abs(centres[0][0] - _row) > 5.0  # the undeformed-plus-shape-key position is not drawn
 
 
+def test_modifier_that_reorders_vertices_draws_the_undeformed_mesh(bpy_module, lit_scene):
+    """A Geometry Nodes Sort Elements modifier keeps every count but renumbers the vertices: the
+    baked per-vertex transfer no longer belongs to the evaluated vertex i, so the display draws
+    the mesh as baked (same image as without the modifier), not the evaluated positions on the
+    original triangles."""
+    import prt_addon.api as api
+
+    bpy = bpy_module
+    set_light(lit_scene, sun_sky_light(3))
+    lit_scene.prt_display.albedo_source = "WHITE"
+    obj = bake_sphere(bpy, 3, segments=24, rings=12)
+    plain = api.render_view(lit_scene, 96, 96)
+
+    tree = bpy.data.node_groups.new("Sort", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    group_in, group_out = tree.nodes.new("NodeGroupInput"), tree.nodes.new("NodeGroupOutput")
+    sort = tree.nodes.new("GeometryNodeSortElements")  # points, by the key below
+    position = tree.nodes.new("GeometryNodeInputPosition")
+    separate = tree.nodes.new("ShaderNodeSeparateXYZ")
+    tree.links.new(position.outputs[0], separate.inputs[0])
+    tree.links.new(separate.outputs["X"], sort.inputs["Sort Weight"])
+    tree.links.new(group_in.outputs[0], sort.inputs["Geometry"])
+    tree.links.new(sort.outputs["Geometry"], group_out.inputs[0])
+    obj.modifiers.new("Sort", "NODES").node_group = tree
+    bpy.context.view_layer.update()
+    evaluated = local_positions(obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data)
+    assert not np.array_equal(evaluated, local_positions(obj.data))  # really renumbered
+    assert len(evaluated) == len(obj.data.vertices)
+
+    sorted_view = api.render_view(lit_scene, 96, 96)
+    np.testing.assert_array_equal(sorted_view, plain)
+
+
 def test_world_projection_seam(bpy_module, lit_scene):
     """With no override the display reads world.current_world_coeffs (issue 3): a constant
     colour world c lights an unshadowed sphere to radiance c everywhere (white furnace)."""

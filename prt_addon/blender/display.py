@@ -355,9 +355,9 @@ def light_ubo_bytes(light_local, count):
 class MeshEntry:
     """GPU data of one baked mesh: vertex buffer, one batch per material slot, transfer texture."""
 
-    def __init__(self, key, info, batches, texture, per_row, elements, triangles, positions=None):
+    def __init__(self, key, info, batches, texture, per_row, elements, triangles):
         self.key = key
-        self.positions = positions  # the deformed positions drawn (None: the mesh's own)
+        self.evaluated = None  # the evaluated positions it was built for (deformed objects)
         self.info = info
         self.batches = batches  # list of (material_index, GPUBatch)
         self.texture = texture
@@ -434,11 +434,12 @@ def element_albedo(mesh, domain, mode, attr_name):
     return np.where(counts > 0, sums / np.maximum(counts, 1), 1.0).astype(np.float32)
 
 
-def deformed_positions(obj, depsgraph):
-    """(vertices, 3) float32 local positions of obj's evaluated mesh when its modifiers or shape
-    keys move the vertices but keep the topology (what the viewport shows, and what the bake
-    used), else None: the mesh's own positions are drawn (no deformation; no depsgraph; or a
-    topology that differs, which the bake refuses, e.g. a modifier added after baking)."""
+def deformed_mesh(obj, depsgraph):
+    """obj's evaluated mesh when its modifiers or shape keys may move its vertices and keep the
+    element counts (what the viewport shows, and what the bake used), else None: the mesh's
+    own positions are drawn (no deformation; no depsgraph; or other counts, which the bake
+    refuses, e.g. a Subdivision added after baking). get_mesh_entry also compares the full
+    topology before it draws these positions."""
     mesh = obj.data
     if depsgraph is None or not (mesh.shape_keys or any(m.show_viewport for m in obj.modifiers)):
         return None
@@ -446,15 +447,14 @@ def deformed_positions(obj, depsgraph):
     counts = (len(mesh.vertices), len(mesh.loops), len(mesh.polygons))
     if (len(mesh_eval.vertices), len(mesh_eval.loops), len(mesh_eval.polygons)) != counts:
         return None
-    return _mesh_io.read_positions(mesh_eval)
+    return mesh_eval
 
 
 def build_mesh_entry(mesh, info, albedo_mode="MATERIAL", albedo_attr="", positions=None):
     """Upload a baked mesh: vertex buffer per element, index buffers per material, transfer.
-    positions: (vertices, 3) local positions to draw instead of the mesh's (deformed_positions)."""
+    positions: (vertices, 3) local positions to draw instead of the mesh's (deformed_mesh)."""
     key = _cache_key(mesh, info, albedo_mode, albedo_attr)
     n = element_count(mesh, info.domain)
-    deformed = positions
     if positions is None:
         positions = _mesh_io.read_positions(mesh)
     mesh.calc_loop_triangles()
@@ -496,7 +496,7 @@ def build_mesh_entry(mesh, info, albedo_mode="MATERIAL", albedo_attr="", positio
             seq = np.ascontiguousarray(tris[order_idx[s:e]])
             ibo = gpu.types.GPUIndexBuf(type="TRIS", seq=seq)
             batches.append((int(sorted_mat[s]), gpu.types.GPUBatch(type="TRIS", buf=vbo, elem=ibo)))
-    return MeshEntry(key, info, batches, texture, per_row, n, ntri, deformed)
+    return MeshEntry(key, info, batches, texture, per_row, n, ntri)
 
 
 def _transfer_texture(transfer, count):
@@ -518,16 +518,23 @@ def _transfer_texture(transfer, count):
 
 def get_mesh_entry(mesh, info, albedo_mode, albedo_attr, obj=None, depsgraph=None):
     """The cached batches of `mesh`, or of `obj` when its modifiers or shape keys deform it:
-    those are drawn at their evaluated positions, read again at every draw and uploaded again
-    when they moved (an animated armature, a shape key value being dragged)."""
-    positions = None if obj is None else deformed_positions(obj, depsgraph)
+    those are drawn at their evaluated positions, read again at every draw; when they moved (an
+    animated armature, a shape-key value being dragged) the whole entry is built again."""
+    mesh_eval = None if obj is None else deformed_mesh(obj, depsgraph)
+    positions = None if mesh_eval is None else _mesh_io.read_positions(mesh_eval)
     ptr = (mesh.as_pointer(), 0 if positions is None else obj.as_pointer())
     key = _cache_key(mesh, info, albedo_mode, albedo_attr)
     entry = _mesh_cache.get(ptr)
     if entry is None or entry.key != key or (
-        positions is not None and not np.array_equal(entry.positions, positions)
+        positions is not None and not np.array_equal(entry.evaluated, positions)
     ):
-        entry = build_mesh_entry(mesh, info, albedo_mode, albedo_attr, positions)
+        drawn = positions
+        # Same counts but other connectivity (e.g. a Sort Elements node): the baked elements
+        # are not these, so draw the undeformed mesh.
+        if positions is not None and _mesh_io.topology_fingerprint(mesh_eval) != _mesh_io.topology_fingerprint(mesh):
+            drawn = None
+        entry = build_mesh_entry(mesh, info, albedo_mode, albedo_attr, drawn)
+        entry.evaluated = positions
         _mesh_cache[ptr] = entry
     return entry
 
@@ -588,7 +595,7 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
     """Draw `objects` with the PRT shader into the bound framebuffer. Returns the number drawn.
 
     view_projection: 4x4 (mathutils.Matrix or array) world -> clip. The caller sets depth state.
-    depsgraph: the evaluated depsgraph whose deformed meshes are drawn (deformed_positions);
+    depsgraph: the evaluated depsgraph whose deformed meshes are drawn (deformed_mesh);
     None draws every mesh undeformed.
     """
     import mathutils
