@@ -413,6 +413,10 @@ def test_unregister_in_the_middle_of_a_modal_bake(bpy_module, scene, monkeypatch
     wm = bpy.context.window_manager
     bake_ops, op = _start_modal(bpy, scene, monkeypatch)
     op._timer = wm.event_timer_add(0.02)  # a real window-manager timer, as invoke() adds
+    # Another bake invoked but not stepped yet: closing its unstarted steps() generator runs none
+    # of the generator's clean-up, so unregister must close the job itself.
+    pending_job = bake_ops.BakeJob([scene.ground], bake_ops.BakeSettings(order=2, samples=16))
+    bake_ops._running.add(_StandIn(bake_ops, pending_job))
     before = snapshot(bpy)
     job = op._bake
     prt_addon.unregister()  # the user disables the add-on while it bakes
@@ -420,6 +424,8 @@ def test_unregister_in_the_middle_of_a_modal_bake(bpy_module, scene, monkeypatch
         assert op._timer is None, "the bake's timer was not removed"
         assert not bake_ops._running and job._cancel
         assert job._pool._shutdown, "the bake's worker threads were not stopped"
+        assert pending_job._cancel
+        assert pending_job._pool._shutdown, "the pending bake's worker threads were not stopped"
         # If Blender still delivers an event to the dead operator, it writes nothing.
         assert op.modal(bpy.context, TIMER) == {"CANCELLED"}
     finally:

@@ -795,7 +795,7 @@ def unregister_extra():
     end the progress bar and status text, close the worker threads. Nothing is written."""
     for op in list(_running):
         _running.discard(op)
-        for step in ("cancel", "timer", "steps", "progress"):
+        for step in ("cancel", "timer", "steps", "close", "progress"):
             try:
                 if step == "cancel":
                     op._bake.cancel()
@@ -804,6 +804,8 @@ def unregister_extra():
                     op._timer = None
                 elif step == "steps":
                     op._steps.close()
+                elif step == "close":
+                    op._bake.close()
                 elif step == "progress":
                     wm = bpy.context.window_manager
                     if wm is not None:
