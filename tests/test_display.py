@@ -51,10 +51,8 @@ def write_bake(obj, transfer, order, domain="POINT"):
 
 
 def fingerprint(mesh):
-    try:
-        from prt_addon.blender.mesh_io import topology_fingerprint
-    except ImportError:  # the bake (issue 4) defines it
-        return f"{len(mesh.vertices)}:{len(mesh.edges)}:{len(mesh.polygons)}:{len(mesh.loops)}"
+    from prt_addon.blender.mesh_io import topology_fingerprint
+
     return topology_fingerprint(mesh)
 
 

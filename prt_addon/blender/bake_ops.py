@@ -337,7 +337,6 @@ class BakeJob:
                     "its faces have no area to bake")
         seen_meshes[mesh.name] = name
         triangles = cached[1] if cached else mesh_io.read_triangles(mesh_eval)
-        self._reads[mesh_eval.as_pointer()] = (positions, triangles)
         offset = max(OFFSET_REL * diagonal, OFFSET_ULP * float(np.abs(world).max()), 1e-30)
         self_occludes = True
         if self.settings.cull and not mesh_eval.has_custom_normals:

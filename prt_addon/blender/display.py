@@ -8,9 +8,11 @@ Data flow per redraw (see docs/display.md):
   `matrix_world` (polar decomposition, reflections handled exactly by the SH parity (-1)^l), and
   written into that object's uniform buffer (std140, vec4-padded) only when it changed;
 * the transfer t (stored per docs/storage.md in FLOAT_COLOR attributes prt_t00..) is uploaded
-  once per mesh and bake into a cached batch: as vertex attributes while they fit in the 16
-  vertex-attribute limit (orders <= 7), otherwise as an RGBA32F texture read with texelFetch at
-  gl_VertexID (an indexed draw over the per-element vertex buffer, so gl_VertexID is the element);
+  into a cached batch once per mesh and bake, and again whenever the evaluated positions of an
+  object deformed by modifiers or shape keys move (its batches are cached per object): as vertex
+  attributes while they fit in the 16 vertex-attribute limit (orders <= 7), otherwise as an
+  RGBA32F texture read with texelFetch at gl_VertexID (an indexed draw over the per-element
+  vertex buffer, so gl_VertexID is the element);
 * the vertex shader computes radiance = max(sum_i L_i t_i, 0) per colour channel, times the albedo
   (material base colour per material slot, or a colour attribute), and the fragment shader writes
   it linearly.
@@ -49,28 +51,18 @@ attribute_count = _mesh_io.attribute_count
 # ---------------------------------------------------------------------------------------------
 
 
-BakeInfo = _mesh_io.BakeRecord  # order, count, domain, record
-
-
 def bake_status(mesh, check_topology=True):
-    """(BakeInfo or None, problem string or ""): whether the mesh holds a usable bake.
+    """(mesh_io.BakeRecord or None, problem string or ""): whether the mesh holds a usable bake.
 
-    A stale bake (topology changed) still returns its BakeInfo, with the problem set; the draw
-    path skips the topology check (check_topology=False) to stay cheap per frame."""
+    A stale bake (topology changed) still returns its BakeRecord, with the problem set; the draw
+    path skips the topology check (check_topology=False) to stay cheap per frame. The check uses
+    the exact fingerprint, not the UI's cached one (an edit that keeps the element counts must
+    still be caught); a record without a fingerprint is not stale here."""
     info, problem = _mesh_io.read_bake_record(mesh)
     if info is None:
         return None, problem
-    stale = check_topology and topology_changed(mesh, info.record)
+    stale = check_topology and _mesh_io.stale_topology(mesh, info.record, allow_missing=True)
     return info, ("topology changed since the bake: re-bake" if stale else "")
-
-
-def topology_changed(mesh, record):
-    """True when the record's fingerprint is not the mesh's current topology fingerprint (exact,
-    not the UI's cached one: an edit that keeps the element counts must still be caught)."""
-    stored = record.get("fingerprint")
-    if stored is None:
-        return False
-    return str(stored) != str(_mesh_io.topology_fingerprint(mesh))
 
 
 def element_count(mesh, domain):
@@ -355,15 +347,12 @@ def light_ubo_bytes(light_local, count):
 class MeshEntry:
     """GPU data of one baked mesh: vertex buffer, one batch per material slot, transfer texture."""
 
-    def __init__(self, key, info, batches, texture, per_row, elements, triangles):
+    def __init__(self, key, batches, texture, per_row, evaluated):
         self.key = key
-        self.evaluated = None  # the evaluated positions it was built for (deformed objects)
-        self.info = info
         self.batches = batches  # list of (material_index, GPUBatch)
         self.texture = texture
         self.per_row = per_row
-        self.elements = elements
-        self.triangles = triangles
+        self.evaluated = evaluated  # the evaluated positions it was built for (deformed objects)
 
 
 class ObjectState:
@@ -418,10 +407,9 @@ def element_albedo(mesh, domain, mode, attr_name):
     attr = _albedo_attribute(mesh, attr_name)
     if attr is None:
         return ones
-    src_n = len(mesh.vertices) if attr.domain == "POINT" else len(mesh.loops)
-    values = np.empty(src_n * 4, dtype=np.float32)
+    values = np.empty(element_count(mesh, attr.domain) * 4, dtype=np.float32)
     attr.data.foreach_get("color", values)
-    values = values.reshape(src_n, 4)
+    values = values.reshape(-1, 4)
     if attr.domain == domain:
         return values
     corner_verts = _mesh_io.read_corner_verts(mesh)
@@ -450,10 +438,11 @@ def deformed_mesh(obj, depsgraph):
     return mesh_eval
 
 
-def build_mesh_entry(mesh, info, albedo_mode="MATERIAL", albedo_attr="", positions=None):
+def build_mesh_entry(mesh, info, key, albedo_mode="MATERIAL", albedo_attr="", positions=None,
+                     evaluated=None):
     """Upload a baked mesh: vertex buffer per element, index buffers per material, transfer.
-    positions: (vertices, 3) local positions to draw instead of the mesh's (deformed_mesh)."""
-    key = _cache_key(mesh, info, albedo_mode, albedo_attr)
+    key: its _cache_key; positions: (vertices, 3) local positions to draw instead of the mesh's
+    (deformed_mesh); evaluated: the evaluated positions the entry stands for (get_mesh_entry)."""
     n = element_count(mesh, info.domain)
     if positions is None:
         positions = _mesh_io.read_positions(mesh)
@@ -496,7 +485,7 @@ def build_mesh_entry(mesh, info, albedo_mode="MATERIAL", albedo_attr="", positio
             seq = np.ascontiguousarray(tris[order_idx[s:e]])
             ibo = gpu.types.GPUIndexBuf(type="TRIS", seq=seq)
             batches.append((int(sorted_mat[s]), gpu.types.GPUBatch(type="TRIS", buf=vbo, elem=ibo)))
-    return MeshEntry(key, info, batches, texture, per_row, n, ntri)
+    return MeshEntry(key, batches, texture, per_row, evaluated)
 
 
 def _transfer_texture(transfer, count):
@@ -533,8 +522,7 @@ def get_mesh_entry(mesh, info, albedo_mode, albedo_attr, obj=None, depsgraph=Non
         # are not these, so draw the undeformed mesh.
         if positions is not None and _mesh_io.topology_fingerprint(mesh_eval) != _mesh_io.topology_fingerprint(mesh):
             drawn = None
-        entry = build_mesh_entry(mesh, info, albedo_mode, albedo_attr, drawn)
-        entry.evaluated = positions
+        entry = build_mesh_entry(mesh, info, key, albedo_mode, albedo_attr, drawn, positions)
         _mesh_cache[ptr] = entry
     return entry
 

@@ -127,7 +127,13 @@ class BakePoints:
     positions: np.ndarray  # (P, 3) float64 world
     normals: np.ndarray  # (P, 3) float64 world, unit (or 0)
     scatter: object  # None or (E,) int64
-    element_count: int
+
+
+def _vertex_points(matrix4, positions, normals):
+    """POINT-domain BakePoints: one point per vertex, in order."""
+    return BakePoints(
+        "POINT", transform_points(matrix4, positions), transform_normals(matrix4, normals), None
+    )
 
 
 def bake_points(mesh, matrix4, positions=None):
@@ -140,13 +146,7 @@ def bake_points(mesh, matrix4, positions=None):
     """
     positions = read_positions(mesh) if positions is None else positions
     if mesh.normals_domain == "POINT":
-        return BakePoints(
-            "POINT",
-            transform_points(matrix4, positions),
-            transform_normals(matrix4, read_vertex_normals(mesh)),
-            None,
-            len(positions),
-        )
+        return _vertex_points(matrix4, positions, read_vertex_normals(mesh))
     corner_verts = read_corner_verts(mesh)
     corner_normals = np.ascontiguousarray(read_corner_normals(mesh))
     # Fast path (e.g. a flat plane): every vertex has corners and all its corners carry the same
@@ -156,11 +156,7 @@ def bake_points(mesh, matrix4, positions=None):
     first = np.full((len(positions), 3), none, dtype=np.int64)
     first[corner_verts] = bits  # one of the vertex's corners' normal (whichever is written last)
     if len(corner_verts) and (first[:, 0] != none).all() and np.array_equal(first[corner_verts], bits):
-        normals = first.astype(np.int32).view(np.float32)
-        return BakePoints(
-            "POINT", transform_points(matrix4, positions), transform_normals(matrix4, normals),
-            None, len(positions),
-        )
+        return _vertex_points(matrix4, positions, first.astype(np.int32).view(np.float32))
     # Corners that share a vertex and a normal (smooth regions) get the same transfer: bake once.
     rows = np.column_stack([corner_verts, bits])
     # np.unique(rows, axis=0, return_inverse=True), computed with a lexsort of the int32 columns
@@ -176,16 +172,12 @@ def bake_points(mesh, matrix4, positions=None):
     vert = unique[:, 0]
     normals = np.ascontiguousarray(unique[:, 1:]).view(np.float32)
     if np.array_equal(vert, np.arange(len(positions))):  # sorted by vertex: exactly one normal each
-        return BakePoints(
-            "POINT", transform_points(matrix4, positions), transform_normals(matrix4, normals),
-            None, len(positions),
-        )
+        return _vertex_points(matrix4, positions, normals)
     return BakePoints(
         "CORNER",
         transform_points(matrix4, positions[vert]),
         transform_normals(matrix4, normals),
         inverse.reshape(-1).astype(np.int64),
-        len(corner_verts),
     )
 
 
@@ -372,6 +364,17 @@ def forget_cached_fingerprints(mesh):
         del _fingerprint_cache[key]
 
 
+def stale_topology(mesh, record, use_cache=False, allow_missing=False):
+    """Why the fingerprint stored in the bake record does not match the mesh's topology, or ""
+    when it does. A record without a fingerprint is incomplete, or accepted with allow_missing.
+    use_cache: compare with cached_fingerprint (UI drawing) instead of the exact fingerprint."""
+    stored = record.get("fingerprint")
+    if stored is None:
+        return "" if allow_missing else "the bake record is incomplete"
+    current = cached_fingerprint(mesh) if use_cache else topology_fingerprint(mesh)
+    return "" if current == str(stored) else "the topology changed since the bake"
+
+
 def bake_status(mesh, use_cache=False):
     """('NONE' | 'FRESH' | 'STALE', reason) of the transfer stored on `mesh`."""
     if mesh is None:
@@ -383,9 +386,7 @@ def bake_status(mesh, use_cache=False):
     bake, problem = read_bake_record(mesh)
     if bake is None:
         return "STALE", f"{problem}: bake again"
-    if "fingerprint" not in bake.record:
-        return "STALE", "the bake record is incomplete: bake again"
-    current = cached_fingerprint(mesh) if use_cache else topology_fingerprint(mesh)
-    if current != str(bake.record.get("fingerprint")):
-        return "STALE", "the topology changed since the bake: bake again"
+    problem = stale_topology(mesh, bake.record, use_cache=use_cache)
+    if problem:
+        return "STALE", f"{problem}: bake again"
     return "FRESH", f"order {bake.order}, {bake.domain.lower()} domain"

@@ -16,7 +16,7 @@ class PRT_PG_world(bpy.types.PropertyGroup):
         description="SH order of the world lighting (order**2 coefficients per colour channel)",
         default=8,
         min=1,
-        max=32,
+        max=world.MAX_ORDER,
         soft_max=16,
     )
     stored_order: bpy.props.IntProperty(name="Stored Order", description="0: nothing stored", default=0)
@@ -58,7 +58,8 @@ class PRT_OT_project_world(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     order: bpy.props.IntProperty(
-        name="Order", description="0: use the scene's World Lighting order", default=0, min=0, max=32
+        name="Order", description="0: use the scene's World Lighting order",
+        default=0, min=0, max=world.MAX_ORDER,
     )
 
     @classmethod
