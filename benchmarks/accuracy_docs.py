@@ -8,6 +8,8 @@ import os
 
 import numpy as np
 
+from accuracy_report import WINDOWS  # the windows the report measures
+
 COLORS = {2: "tab:blue", 3: "tab:orange", 4: "tab:green", 6: "tab:red", 8: "tab:purple"}
 SET_STYLE = {"FIBONACCI": "-o", "STRATIFIED": "-s", "UNIFORM": "-^"}
 
@@ -227,7 +229,7 @@ def write(results, docs_dir):
 
     # Error tables.
     a("## Error against samples (Fibonacci): MC error / total error, %\n")
-    for i, img in enumerate(images[:-1]):
+    for img in images[:-1]:
         a(f"![error against seconds]({'images/' + img})\n")
     for s, res in scenes.items():
         for h in cfg["hdris"]:
@@ -297,10 +299,9 @@ def write(results, docs_dir):
       "0.5 to 5 degrees and radiance 1e4 to 1e6 on a uniform background of 1, 35 degrees above the "
       "horizon) the cap is traced exactly (400 rays per vertex into the cap) and the background is the "
       "converged t_0. HDRIs without a Cycles truth show ringing only.\n")
-    WIN = ["NONE", "HANNING", "LANCZOS", "AUTO_LAPLACIAN", "AUTO_HANNING"]
     # Summary over all cases and orders, per window.
     rows = []
-    for w in WIN:
+    for w in WINDOWS:
         neg, mins, ratio, finite = [], [], [], True
         for s, res in scenes.items():
             by = {(r["case"], r["order"], r["window"]): r for r in res["stiff"]}
@@ -330,13 +331,13 @@ def write(results, docs_dir):
                 cases.append(r["case"])
         for case in cases:
             cells = [case]
-            for w in WIN:
+            for w in WINDOWS:
                 r = next(r for r in scenes[s0]["stiff"] if r["case"] == case and r["order"] == n and r["window"] == w)
                 err = f"{pct(r['err_clamped'])}" if "err_clamped" in r else "-"
                 cells.append(f"{pct(r['neg_fraction'], 1)} / {100 * r['min_rel']:.1f} / {err}")
             rows.append(cells)
         a(f"**{s0}, order {n}**: negative vertices % / min over mean % / error %\n")
-        a(table(["case", *WIN], rows) + "\n")
+        a(table(["case", *WINDOWS], rows) + "\n")
     a("WINDOW_TEXT\n")
 
     # Float32.

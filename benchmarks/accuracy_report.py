@@ -34,7 +34,8 @@ sys.path.insert(0, ROOT)
 
 import numpy as np  # noqa: E402
 
-LUMA = np.array([0.2126, 0.7152, 0.0722])
+from prt_addon.core.resample import LUMINANCE as LUMA  # noqa: E402
+
 FULL = dict(
     orders=[2, 3, 4, 6, 8], samples=[64, 128, 256, 512, 1024, 2048, 4096],
     sets=["FIBONACCI", "STRATIFIED", "UNIFORM"], converged=65536,

@@ -24,8 +24,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 from prt_addon.core import analytic, directions, projection, sh  # noqa: E402
-
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+from prt_addon.core.resample import LUMINANCE  # noqa: E402
 
 
 def bundled_hdri_path(name):
@@ -126,41 +125,46 @@ def run_scene(args):
     from prt_addon.blender import offscreen
 
     offscreen.ensure_gpu()  # before building large meshes: it renders a scene (REFERENCE.md)
-    prt_addon.register()
-    scene = build_scene(bundled_hdri_path(args.hdri))
+    try:
+        prt_addon.register()
+        scene = build_scene(bundled_hdri_path(args.hdri))
 
-    scene.prt_world.order = args.order
-    result = bpy.ops.prt.project_world()
-    print(f"\nprt.project_world: {result.pop()}; {scene.prt_world.seconds * 1e3:.0f} ms, order {scene.prt_world.order}")
+        scene.prt_world.order = args.order
+        result = bpy.ops.prt.project_world()
+        print(f"\nprt.project_world: {result.pop()}; {scene.prt_world.seconds * 1e3:.0f} ms, order {scene.prt_world.order}")
 
-    for obj in scene.objects:
-        obj.select_set(obj.type == "MESH")
-    bpy.context.view_layer.objects.active = scene.objects["Suzanne"]
-    settings = scene.prt_bake
-    settings.order, settings.samples, settings.shadows = args.order, args.samples, True
-    result = bpy.ops.prt.bake_transfer()
-    print(f"prt.bake_transfer: {result.pop()}; bake report:")
-    report = json.loads(settings.last_report)
-    print(f"  {len(report['objects'])} objects, {report['points']:,} points, order {report['order']}, "
-          f"{report['samples']} {report['direction_set'].lower()} directions, backend {report['backend']}")
-    print(f"  {report['seconds']:.2f} s, {report['rays_traced']:,} rays traced "
-          f"({report['rays_traced'] / max(report['seconds'], 1e-9) / 1e6:.1f} Mrays/s), {report['rays_skipped']:,} skipped "
-          f"({report['skipped_below_horizon']:,} below the horizon, {report['skipped_unoccludable']:,} where nothing can occlude)")
-    print(f"  Monte-Carlo error estimate {report['error_estimate']:.2e} RMS per coefficient "
-          f"({report['error_estimate_relative']:.1%} of the transfer vector's norm)")
+        for obj in scene.objects:
+            obj.select_set(obj.type == "MESH")
+        bpy.context.view_layer.objects.active = scene.objects["Suzanne"]
+        settings = scene.prt_bake
+        settings.order, settings.samples, settings.shadows = args.order, args.samples, True
+        result = bpy.ops.prt.bake_transfer()
+        print(f"prt.bake_transfer: {result.pop()}; bake report:")
+        report = json.loads(settings.last_report)
+        print(f"  {len(report['objects'])} objects, {report['points']:,} points, order {report['order']}, "
+              f"{report['samples']} {report['direction_set'].lower()} directions, backend {report['backend']}")
+        print(f"  {report['seconds']:.2f} s, {report['rays_traced']:,} rays traced "
+              f"({report['rays_traced'] / max(report['seconds'], 1e-9) / 1e6:.1f} Mrays/s), {report['rays_skipped']:,} skipped "
+              f"({report['skipped_below_horizon']:,} below the horizon, {report['skipped_unoccludable']:,} where nothing can occlude)")
+        print(f"  Monte-Carlo error estimate {report['error_estimate']:.2e} RMS per coefficient "
+              f"({report['error_estimate_relative']:.1%} of the transfer vector's norm)")
 
-    os.makedirs(args.output, exist_ok=True)
-    radiance = api.shade(scene.objects["Suzanne"])
-    print(f"Suzanne radiance (white albedo): min {radiance.min():.3f}, mean {radiance.mean():.3f}, max {radiance.max():.3f}")
-    pattern = os.path.join(args.output, "prt_rotation_{:03d}.png")
-    start = time.perf_counter()
-    paths = offscreen.render_rotations(scene, [0, 120, 240], pattern)
-    print(f"rendered {len(paths)} views through the PRT shader in {time.perf_counter() - start:.2f} s:")
-    for path in paths:
-        print("  " + os.path.relpath(path, ROOT))
-    blend = os.path.join(args.output, "prt_demo.blend")
-    bpy.ops.wm.save_as_mainfile(filepath=blend)
-    print("  " + os.path.relpath(blend, ROOT))
+        os.makedirs(args.output, exist_ok=True)
+        radiance = api.shade(scene.objects["Suzanne"])
+        print(f"Suzanne radiance (white albedo): min {radiance.min():.3f}, mean {radiance.mean():.3f}, max {radiance.max():.3f}")
+        pattern = os.path.join(args.output, "prt_rotation_{:03d}.png")
+        start = time.perf_counter()
+        paths = offscreen.render_rotations(scene, [0, 120, 240], pattern)
+        print(f"rendered {len(paths)} views through the PRT shader in {time.perf_counter() - start:.2f} s:")
+        for path in paths:
+            print("  " + os.path.relpath(path, ROOT))
+        blend = os.path.join(args.output, "prt_demo.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=blend)
+        print("  " + os.path.relpath(blend, ROOT))
+    finally:
+        # bpy 4.x as a module frees classes still registered at exit after Python has shut down
+        # and segfaults: unregister while Python runs (full Blender does this itself).
+        prt_addon.unregister()
 
 
 def main(argv=None):
@@ -185,14 +189,7 @@ def main(argv=None):
         for i, (r, g, b) in enumerate(coeffs[3]):
             l = int(np.sqrt(i))
             print(f"  i={i} l={l} m={i - l * (l + 1):>2}: {r:10.5f} {g:10.5f} {b:10.5f}")
-    import prt_addon
-
-    try:
-        run_scene(args)
-    finally:
-        # bpy 4.x as a module frees classes still registered at exit after Python has shut down
-        # and segfaults: unregister while Python runs (full Blender does this itself).
-        prt_addon.unregister()
+    run_scene(args)
     return 0
 
 

@@ -25,10 +25,12 @@ each an unbiased quadrature t_g on its own, t = sum_g |G_g| t_g / N, and
 
 (for K = 2: SE = |t_A - t_B| / 2). For i.i.d. directions (UNIFORM) this is the unbiased standard
 error, with K = 8 groups: with two, one unlucky set can make both halves agree while both are
-wrong (measured: estimate 0.15x the true error). The Fibonacci and stratified sets use K = 2: for
-them the groups are worse than the whole by more than sqrt(K) (quasi-Monte-Carlo error falls
-faster than N^-1/2), which error_calibration() corrects for Fibonacci by a fitted factor
-(docs/accuracy.md). The per-point figure is the L2 norm over the coefficients.
+wrong (measured: estimate 0.15x the true error). The Fibonacci and stratified sets use K = 2. For
+the Fibonacci set the halves are worse than the whole by more than sqrt(2) (quasi-Monte-Carlo error
+falls faster than N^-1/2, and the halves alias as N / 2 nears n^2), so the raw estimate over-states
+the error; error_calibration() divides it by a fitted factor. The stratified set keeps the raw
+half-set estimate (measured 0.7-1.8 of the true error, docs/accuracy.md). The per-point figure is
+the L2 norm over the coefficients.
 
 Memory: points are processed in slices of at most chunk_rays / threads candidate (point,
 direction) pairs per thread. Each pair costs about RAY_BYTES of buffers and each point of a
@@ -202,12 +204,13 @@ class TransferComputation:
         basis = directions.basis(self.order)
         self.n_dirs = len(dirs)
         groups = min(error_groups(directions.kind), self.n_dirs)
-        self.group_bounds = np.cumsum([0] + [len(range(g, self.n_dirs, groups)) for g in range(groups)])
+        members = [np.arange(g, self.n_dirs, groups) for g in range(groups)]
+        self.group_bounds = np.cumsum([0] + [len(m) for m in members])
         self.error_scale = error_calibration(directions.kind, self.n_dirs, self.order)
-        perm = np.concatenate([np.arange(g, self.n_dirs, groups) for g in range(groups)])
-        self.dirs64 = np.ascontiguousarray(dirs[perm])
-        self.dirs16 = _rays16(self.dirs64)
-        self.dirs64T = np.ascontiguousarray(self.dirs64.T)
+        perm = np.concatenate(members)
+        dirs64 = np.ascontiguousarray(dirs[perm])
+        self.dirs16 = _rays16(dirs64)
+        self.dirs64T = np.ascontiguousarray(dirs64.T)
         self.basis = np.ascontiguousarray(basis[perm])
         offset = np.broadcast_to(np.asarray(offset, dtype=np.float64), (count,))
         self.origins16 = _rays16(self.positions + offset[:, None] * self.normals)
@@ -297,13 +300,18 @@ class TransferComputation:
         _matmul_rows(self.normals[lo:hi], self.dirs64T[:, k0:k1], out=weight)
         above = ws["above"][:size].reshape(n_pts, cols)
         np.greater(weight, 0.0, out=above)
-        n_above = int(np.count_nonzero(above))
         np.maximum(weight, 0.0, out=weight)
+        if not needs.any():  # unshadowed slice: nothing to trace
+            empty = np.empty(0, dtype=_RAY16)
+            return weight, int(np.count_nonzero(above)), np.empty(0, dtype=np.intp), _xyz(empty), _xyz(empty)
+        per_point = np.count_nonzero(above, axis=1)  # directions above the horizon, per point
+        n_above = int(per_point.sum())
         if not needs.all():
             above[~needs] = False
+            per_point[~needs] = 0
         flat = np.flatnonzero(above)
         # Rays are point-major: each origin is repeated once per direction it traces.
-        origins = np.repeat(self.origins16[lo:hi], np.count_nonzero(above, axis=1))
+        origins = np.repeat(self.origins16[lo:hi], per_point)
         dirs = np.take(self._tiled_dirs(k0, k1), flat, out=ws["dirs"][: len(flat)])
         return weight, n_above, flat, _xyz(origins), _xyz(dirs)
 
