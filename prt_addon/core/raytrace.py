@@ -105,8 +105,8 @@ def _triangle_normals(v, t):
 
 
 def _used_vertices(t, count):
-    """Sorted unique vertex indices of triangles t (np.unique(t), without its sort)."""
-    mask = np.zeros(max(count, int(t.max()) + 1 if len(t) else 0), dtype=bool)
+    """Sorted unique vertex indices of the (non-empty) triangles t (np.unique(t), without its sort)."""
+    mask = np.zeros(max(count, int(t.max()) + 1), dtype=bool)
     mask[t.ravel()] = True
     return np.flatnonzero(mask)
 
@@ -141,7 +141,8 @@ def is_closed_convex(vertices, triangles, rel_tol=1e-6):
     if len(t) < 4:
         return False
     used = _used_vertices(t, len(v))
-    # The Euler test below (E = 3 F / 2 once closed) is cheap: done first, as most meshes fail it.
+    # Euler test with E = 3 F / 2 (each edge of a closed surface has two half-edges, which is
+    # checked below): cheap, so done first, as most meshes fail it.
     if len(used) - (3 * len(t)) // 2 + len(t) != 2:
         return False
     scale = np.linalg.norm(v[used].max(axis=0) - v[used].min(axis=0))
@@ -171,9 +172,6 @@ def is_closed_convex(vertices, triangles, rel_tol=1e-6):
     # Far vertex of the neighbouring triangle against this triangle's plane.
     height = np.einsum("ij,ij->i", v[opposite[twin]] - v[a], unit[face])
     if np.any(height > tol):
-        return False
-    edges = len(a) // 2
-    if len(used) - edges + len(t) != 2:
         return False
     # Corner angles.
     e1 = v[b] - v[a]
