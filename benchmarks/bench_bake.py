@@ -8,8 +8,9 @@ docs/bake.md, "Throughput"), as medians [min - max] of interleaved repeats:
 * the bake's throughput: whole api.bake call, and its compute phase (tracing, projection; the
   scene's BVH is built in the background while the job is created, so it is in the whole call),
 * raw embreex on exactly those rays with 2 threads: R (the bake's batches, prebuilt scene), RB
-  (BVH build + R), and one run() per thread; the ratios raw time / bake time per repeat, in wall
-  and in process CPU time (target: compute / RB >= 0.85),
+  (embreex's own TriangleMesh + BVH build + R), RBs (the same with the triangles attached as
+  shared buffers, as the bake's occluder does), and one run() per thread; the ratios raw time /
+  bake time per repeat, in wall and in process CPU time (target: whole call / RB >= 0.85),
 * the BVHTree fallback's throughput (a bake with backend='BVHTREE' at fewer samples),
 * peak memory (VmHWM) of a bake of a 1M-vertex mesh, measured in a fresh subprocess, at two
   sample counts to show that it does not grow with them.
@@ -61,6 +62,7 @@ def same_rays(objects, samples):
     parts = bake_ops._scene_parts(bpy.context.evaluated_depsgraph_get())
     vertices, triangles = bake_ops._concatenate(parts)
     batches = [b for plan in job.plans for b in plan.computation.iter_rays()]
+    job.close()
     origins = np.ascontiguousarray(np.concatenate([o for o, _d in batches]))
     dirs = np.ascontiguousarray(np.concatenate([d for _o, d in batches]))
     return vertices, triangles, origins, dirs, batches
@@ -96,22 +98,17 @@ def raw_embree_seconds(occ, origins, dirs, threads):
     return time.perf_counter() - t0
 
 
-def raw_build_and_batches_seconds(vertices, triangles, batches, threads):
-    """A fresh EmbreeOccluder (BVH build) and then the bake's batches, as the bake does it."""
+def raw_build_and_batches_seconds(vertices, triangles, batches, threads, shared):
+    """A fresh occluder (shared=False: embreex's own TriangleMesh copy; True: shared buffers, as
+    the bake does), its BVH build, and then the bake's batches."""
     t0 = time.perf_counter()
-    occ = raytrace.EmbreeOccluder(vertices, triangles)
+    occ = raytrace.EmbreeOccluder(vertices, triangles, shared=shared)
+    assert occ.geometry == ("SHARED" if shared else "COPIED"), occ.geometry
     return time.perf_counter() - t0 + raw_batches_seconds(occ, batches, threads)
 
 
-def cpu_seconds(fn, *args, **kwargs):
-    """(result, CPU seconds of this process) of fn(...): less sensitive to other jobs."""
-    c0 = time.process_time()
-    out = fn(*args, **kwargs)
-    return out, time.process_time() - c0
-
-
 def timed(fn, *args):
-    """(result, wall seconds, CPU seconds of this process)."""
+    """(result, wall seconds, CPU seconds of this process: less sensitive to other jobs)."""
     w0, c0 = time.perf_counter(), time.process_time()
     out = fn(*args)
     return out, time.perf_counter() - w0, time.process_time() - c0
@@ -150,10 +147,12 @@ def throughput(args):
         for _ in range(args.repeats):
             report, (bake_s, compute_s, bake_cpu, compute_cpu) = bake_phases(objects, args.samples)
             whole = raw_embree_seconds(occ, origins, dirs, 2)
-            batched, batched_cpu = cpu_seconds(raw_batches_seconds, occ, batches, 2)
-            built, built_cpu = cpu_seconds(raw_build_and_batches_seconds, vertices, triangles, batches, 2)
-            rows.append((bake_s, compute_s, whole, batched, built, bake_cpu, compute_cpu, built_cpu))
-        bake_s, compute_s, whole_s, batched_s, built_s, bake_cpu, compute_cpu, built_cpu = np.array(rows).T
+            batched = raw_batches_seconds(occ, batches, 2)
+            built, _, built_cpu = timed(raw_build_and_batches_seconds, vertices, triangles, batches, 2, False)
+            shared = raw_build_and_batches_seconds(vertices, triangles, batches, 2, True)
+            rows.append((bake_s, compute_s, whole, batched, built, shared, bake_cpu, compute_cpu, built_cpu))
+        (bake_s, compute_s, whole_s, batched_s, built_s, shared_s, bake_cpu, compute_cpu,
+         built_cpu) = np.array(rows).T
         rays = report.rays_traced
         assert len(origins) == rays, (len(origins), rays)
         m = lambda x: rays / np.median(x) / 1e6  # noqa: E731 - Mrays/s at the median time
@@ -165,11 +164,16 @@ def throughput(args):
         print(f"  bake, compute (trace+projection)           {spread(compute_s)}  {m(compute_s):6.2f} Mrays/s")
         print(f"  raw embreex, one run() per thread          {spread(whole_s)}  {m(whole_s):6.2f} Mrays/s")
         print(f"  raw embreex, the bake's batches        R   {spread(batched_s)}  {m(batched_s):6.2f} Mrays/s")
-        print(f"  raw embreex, BVH build + batches       RB  {spread(built_s)}  {m(built_s):6.2f} Mrays/s")
+        print(f"  raw embreex, TriangleMesh + BVH build + batches  RB  {spread(built_s)}  "
+              f"{m(built_s):6.2f} Mrays/s")
+        print(f"  raw embreex, shared buffers + BVH build + batches RBs {spread(shared_s)}  "
+              f"{m(shared_s):6.2f} Mrays/s")
         print("ratios per repeat (raw time / bake time), median [min - max]; target >= 0.85 for the")
         print("whole call (the bake's BVH build overlaps the job's set-up, so it is not in compute):")
         print(f"  whole call / RB (+ extraction, writing) wall {spread(built_s / bake_s)}   "
               f"CPU {spread(built_cpu / bake_cpu)}")
+        print(f"  whole call / RBs                    wall {spread(shared_s / bake_s)}")
+        print(f"  whole call / R                      wall {spread(batched_s / bake_s)}")
         print(f"  compute / RB                        wall {spread(built_s / compute_s)}   "
               f"CPU {spread(built_cpu / compute_cpu)}")
         print(f"  compute / R  (tracing and projection vs raw tracing) wall {spread(batched_s / compute_s)}")

@@ -25,6 +25,8 @@ Culling (no rays where nothing can occlude), used by prt_addon.core.transfer:
 
 import numpy as np
 
+from . import embree_buffers
+
 try:  # the wheel exists for x86_64 Linux/Windows and macOS only
     from embreex import mesh_construction as _embree_mesh
     from embreex import rtcore_scene as _embree_scene
@@ -54,12 +56,14 @@ class EmbreeOccluder:
     embreex's run() traces one ray at a time in one thread but releases the GIL, so several
     Python threads calling occluded() on disjoint batches scale with the cores. The BVH is built
     on the first run(): the constructor does it with one ray so that later calls are read-only.
+    Embree reads the triangles in place where `embree_buffers` works (`geometry` "SHARED"),
+    else they are copied by embreex's TriangleMesh ("COPIED"); the two trace identically.
     """
 
     name = "EMBREE"
     max_threads = 16
 
-    def __init__(self, vertices, triangles, robust=False):
+    def __init__(self, vertices, triangles, robust=False, shared=True):
         if not EMBREE_AVAILABLE:
             raise RuntimeError(f"embreex is not available ({EMBREE_IMPORT_ERROR})")
         v, t = as_triangles(vertices, triangles)
@@ -67,7 +71,12 @@ class EmbreeOccluder:
             raise ValueError("an occluder needs at least one triangle")
         self.triangle_count = len(t)
         self._scene = _embree_scene.EmbreeScene(robust=robust)
-        self._mesh = _embree_mesh.TriangleMesh(self._scene, v, t)
+        if shared and embree_buffers.available():
+            self._buffers = embree_buffers.attach_triangles(self._scene, v, t)
+            self.geometry = "SHARED"
+        else:
+            self._mesh = _embree_mesh.TriangleMesh(self._scene, v, t)
+            self.geometry = "COPIED"
         self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
 
     def occluded(self, origins, directions):
