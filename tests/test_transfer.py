@@ -351,6 +351,15 @@ def test_convexity_and_planarity_tests():
     bent = grid.copy()
     bent[8, 2] = 0.5
     assert not raytrace.cannot_self_occlude(bent, gt)
+    # A plane in any orientation and position is planar up to rel_tol of its size, not beyond.
+    rng = np.random.default_rng(5)
+    rotation = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    tilted = (1e3 * grid) @ rotation.T + [5e3, -2e3, 7e3]
+    size = np.linalg.norm(tilted.max(axis=0) - tilted.min(axis=0))
+    for noise, planar in ((1e-8, True), (1e-4, False)):
+        shaken = tilted + noise * size * rotation[:, 2] * rng.choice([-1.0, 1.0], size=(9, 1))
+        assert raytrace.is_planar(shaken, gt) == planar
+    assert not raytrace.is_planar(np.zeros((9, 3)), gt)  # all at one point: no plane
 
 
 def test_box_can_occlude():

@@ -121,19 +121,20 @@ def _used_vertices(t, count):
 
 
 def is_planar(vertices, triangles, rel_tol=1e-6):
+    """True when every vertex of the triangles lies within rel_tol * (bounding-box diagonal) of
+    their least-squares plane, whose normal is the eigenvector of the smallest eigenvalue of the
+    vertices' scatter matrix (a 3 x 3 problem: no per-triangle work)."""
     v = np.asarray(vertices, dtype=np.float64)
     t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     if len(t) == 0:
         return False
     used = v[_used_vertices(t, len(v))]
     scale = np.linalg.norm(used.max(axis=0) - used.min(axis=0))
-    normal = _triangle_normals(v, t).sum(axis=0)
-    length = np.linalg.norm(normal)
-    if length == 0.0 or scale == 0.0:
+    if scale == 0.0:
         return False
-    normal /= length
-    height = (used - used.mean(axis=0)) @ normal
-    return bool(np.abs(height).max() <= rel_tol * scale)
+    centred = used - used.mean(axis=0)
+    normal = np.linalg.eigh(centred.T @ centred)[1][:, 0]
+    return bool(np.abs(centred @ normal).max() <= rel_tol * scale)
 
 
 def is_closed_convex(vertices, triangles, rel_tol=1e-6):
