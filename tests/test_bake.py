@@ -2,6 +2,7 @@
 
 import json
 import types
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
@@ -259,6 +260,52 @@ def test_scene_bvh_is_built_only_when_a_ray_can_be_traced(empty_scene, bpy_modul
     job.steps().close()  # a generator closed before its first step runs no clean-up of its own
     job.close()  # what the operator's clean-up does
     assert job._pool._shutdown and all(not t.is_alive() for t in job._pool._threads)
+
+
+def test_first_object_traces_while_the_others_are_prepared(empty_scene, bpy_module, bake_ops, mesh_io,
+                                                          monkeypatch):
+    """The job queues the first object's slices as soon as its points are ready: one of them is
+    traced while the second object's points are still being read. A failure there stops them and
+    leaves no thread behind."""
+    bpy = bpy_module
+    ground, monkey = _monkey_on_ground(bpy)
+    started, seen = [], []
+    real_start, real_points = bake_ops.transfer.TransferComputation.start, mesh_io.bake_points
+
+    def recording_start(self):
+        started.append(self)
+        return real_start(self)
+
+    def points(mesh, *args):
+        if started:  # the second object: wait (up to 20 s) for a slice of the first
+            future = started[0]._pending[0][2]
+            future.result(timeout=20)
+            seen.append(started[0].done == 0 and future.done())
+        return real_points(mesh, *args)
+
+    monkeypatch.setattr(bake_ops.transfer.TransferComputation, "start", recording_start)
+    monkeypatch.setattr(mesh_io, "bake_points", points)
+    settings = bake_ops.BakeSettings(order=3, samples=64, backend="EMBREE", threads=2)
+    job = bake_ops.BakeJob([monkey, ground], settings)
+    assert len(started) == 1 and seen == [True]
+    report = job.run()
+    assert report.rays_traced > 0
+
+    def failing_points(mesh, *args):
+        if started:
+            raise RuntimeError("injected")
+        return real_points(mesh, *args)
+
+    started.clear()
+    monkeypatch.setattr(mesh_io, "bake_points", failing_points)
+    before = {o.name: _attr_bytes(o.data) for o in (ground, monkey)}
+    pools = []
+    monkeypatch.setattr(bake_ops, "ThreadPoolExecutor",
+                        lambda *a, **k: pools.append(ThreadPoolExecutor(*a, **k)) or pools[-1])
+    with pytest.raises(RuntimeError, match="injected"):
+        bake_ops.BakeJob([monkey, ground], settings)
+    assert started and pools[0]._shutdown and all(not t.is_alive() for t in pools[0]._threads)
+    assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
 
 
 def test_failing_bake_leaves_attributes_untouched(empty_scene, bpy_module, bake_ops, mesh_io, monkeypatch):

@@ -282,13 +282,17 @@ class BakeJob:
             scene = self._occluder
             if scene is not None and any(self._may_trace(p) for p in self.plans if p.occluder is scene):
                 scene.start(self._pool)
-            for plan in self.plans:
+            self.directions = make_directions(self.settings.direction_set, self.settings.samples,
+                                              self.settings.seed)
+            # The first object's slices start as soon as its points are ready: they trace while
+            # the other objects' points are read.
+            for index, plan in enumerate(self.plans):
                 mesh_eval, positions = plan.source
                 plan.points = mesh_io.bake_points(mesh_eval, plan.matrix, positions)
                 plan.source = None
-            self.directions = make_directions(self.settings.direction_set, self.settings.samples,
-                                              self.settings.seed)
-            self._make_computations()
+                plan.computation = self._computation(plan)
+                if index == 0:
+                    plan.computation.start()
             self._parts = self._reads = None  # not needed any more: free the arrays
         except BaseException:
             self.close()
@@ -379,14 +383,13 @@ class BakeJob:
                 boxes = None
             plan.occluder, plan.boxes = occluder, boxes
 
-    def _make_computations(self):
+    def _computation(self, plan):
         s = self.settings
-        for plan in self.plans:
-            plan.computation = transfer.TransferComputation(
-                plan.points.positions, plan.points.normals, self.directions, s.order,
-                occluder=plan.occluder, offset=plan.offset, self_occludes=plan.self_occludes,
-                other_boxes=plan.boxes, chunk_rays=s.chunk_rays, threads=s.threads, pool=self._pool,
-            )
+        return transfer.TransferComputation(
+            plan.points.positions, plan.points.normals, self.directions, s.order,
+            occluder=plan.occluder, offset=plan.offset, self_occludes=plan.self_occludes,
+            other_boxes=plan.boxes, chunk_rays=s.chunk_rays, threads=s.threads, pool=self._pool,
+        )
 
     def close(self):
         """Stop the work queued for this job and its threads (idempotent). steps() does it when

@@ -396,6 +396,14 @@ class TransferComputation:
             self._pending.append((a, b, self._pool.submit(self._slice, a, b)))
             self._next = b
 
+    def start(self):
+        """Queue the first slices now (threads > 1), so that they run while the caller does
+        other work; step() collects them. The wall time (stats.seconds) starts here."""
+        if self._started is None:
+            self._started = time.perf_counter()
+        if self.threads > 1 and self.done < self.total and not self._cancel:
+            self._submit()
+
     def step(self):
         """Process one chunk; returns False when every point is done."""
         if self._cancel:
