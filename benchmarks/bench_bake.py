@@ -143,23 +143,33 @@ def throughput(args):
         vertices, triangles, origins, dirs, batches = same_rays(objects, args.samples)
         occ = raytrace.EmbreeOccluder(vertices, triangles)
         # Interleaved repeats (the machine is shared and noisy): medians, ratios per repeat.
-        rows = []
-        for _ in range(args.repeats):
-            report, (bake_s, compute_s, bake_cpu, compute_cpu) = bake_phases(objects, args.samples)
-            whole = raw_embree_seconds(occ, origins, dirs, 2)
-            batched = raw_batches_seconds(occ, batches, 2)
-            built, _, built_cpu = timed(raw_build_and_batches_seconds, vertices, triangles, batches, 2, False)
-            shared = raw_build_and_batches_seconds(vertices, triangles, batches, 2, True)
-            rows.append((bake_s, compute_s, whole, batched, built, shared, bake_cpu, compute_cpu, built_cpu))
-        (bake_s, compute_s, whole_s, batched_s, built_s, shared_s, bake_cpu, compute_cpu,
-         built_cpu) = np.array(rows).T
+        # Interleaved repeats (the machine is shared and noisy), each in a rotated order: a run
+        # is slowed by the one before it (measured: the bake by ~8 % after the one-run()-per-
+        # thread call, which allocates ~60 MB, and after RB; by ~2 % after R), so every
+        # measurement follows each of the others equally often. Medians; ratios per repeat.
+        runs = {
+            "bake": lambda: bake_phases(objects, args.samples),
+            "whole": lambda: raw_embree_seconds(occ, origins, dirs, 2),
+            "batched": lambda: raw_batches_seconds(occ, batches, 2),
+            "built": lambda: timed(raw_build_and_batches_seconds, vertices, triangles, batches, 2, False),
+            "shared": lambda: raw_build_and_batches_seconds(vertices, triangles, batches, 2, True),
+        }
+        names = list(runs)
+        out = {name: [] for name in names}
+        for r in range(args.repeats):
+            for name in names[r % len(names):] + names[:r % len(names)]:
+                out[name].append(runs[name]())
+        report = out["bake"][-1][0]
+        bake_s, compute_s, bake_cpu, compute_cpu = np.array([phases for _r, phases in out["bake"]]).T
+        whole_s, batched_s, shared_s = (np.array(out[name]) for name in ("whole", "batched", "shared"))
+        built_s, built_cpu = np.array([(wall, cpu) for wall, _w, cpu in out["built"]]).T
         rays = report.rays_traced
         assert len(origins) == rays, (len(origins), rays)
         m = lambda x: rays / np.median(x) / 1e6  # noqa: E731 - Mrays/s at the median time
         print(f"rays traced {rays:,}, skipped {report.rays_skipped:,} "
               f"(below horizon {report.skipped_below_horizon:,}, nothing to occlude "
               f"{report.skipped_unoccludable:,}); {len(batches)} batches of ~{rays // len(batches):,} rays")
-        print(f"{args.repeats} interleaved repeats; wall seconds as median [min - max]:")
+        print(f"{args.repeats} interleaved repeats (rotated order); wall seconds as median [min - max]:")
         print(f"  bake, whole api.bake call                  {spread(bake_s)}  {m(bake_s):6.2f} Mrays/s")
         print(f"  bake, compute (trace+projection)           {spread(compute_s)}  {m(compute_s):6.2f} Mrays/s")
         print(f"  raw embreex, one run() per thread          {spread(whole_s)}  {m(whole_s):6.2f} Mrays/s")

@@ -183,10 +183,14 @@ class _LazyOccluder:
         return real.occluded(origins, directions)
 
 
+# Embree bake vs BVH tree bake throughput, measured by benchmarks/bench_bake.py (docs/bake.md).
+FALLBACK_SLOWDOWN = "30 to 40"
+
+
 def fallback_note():
     """The sentence shown when Auto falls back to the BVH tree because embreex does not import."""
     return (f"Embree (embreex) is not available on this system ({raytrace.EMBREE_IMPORT_ERROR}): "
-            "the slower BVH tree fallback was used (about 40 to 60 times slower, one thread)")
+            f"the slower BVH tree fallback was used (about {FALLBACK_SLOWDOWN} times slower, one thread)")
 
 
 def resolve_backend(requested):
@@ -758,7 +762,7 @@ class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
             else:
                 col = layout.column(align=True)
                 col.label(text="Embree (embreex) is not available here:", icon="INFO")
-                col.label(text="the BVH tree fallback bakes 40-60x slower")
+                col.label(text=f"the BVH tree fallback bakes {FALLBACK_SLOWDOWN}x slower")
         layout.operator(PRT_OT_bake_transfer.bl_idname, text="Bake", icon="RENDER_STILL")
         stale = []
         for obj in context.selected_objects[:16]:
