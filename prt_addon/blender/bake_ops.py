@@ -142,7 +142,6 @@ class _LazyOccluder:
         self._parts = (vertices, triangles)
         self._real = None
         self._lock = threading.Lock()
-        self.build_seconds = 0.0
         self._started = None
 
     def start(self, pool):
@@ -166,7 +165,6 @@ class _LazyOccluder:
     def _build(self):
         with self._lock:
             if self._real is None:
-                t0 = time.perf_counter()
                 vertices, triangles = self._parts
                 if self.name == "EMBREE":
                     self._real = raytrace.EmbreeOccluder(vertices, triangles)
@@ -175,7 +173,6 @@ class _LazyOccluder:
 
                     self._real = BVHTreeOccluder(vertices, triangles)
                 self._parts = None
-                self.build_seconds = time.perf_counter() - t0
         return self._real
 
     def occluded(self, origins, directions):
