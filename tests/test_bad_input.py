@@ -368,6 +368,47 @@ def _start_modal(bpy, scene_ns, monkeypatch):
     return bake_ops, op
 
 
+def test_invoke_failing_after_the_job_starts_stops_it(bpy_module, scene, monkeypatch):
+    """invoke() creates the job (whose first slices start tracing at once), then adds the timer
+    and the modal handler: if that fails, the job's threads are stopped and nothing is kept."""
+    from prt_addon.blender import bake_ops
+
+    bpy = bpy_module
+
+    class WithWindow:  # bpy as seen by bake_ops, but not in background mode
+        app = types.SimpleNamespace(background=False)
+
+        def __getattr__(self, name):
+            return getattr(bpy, name)
+
+    class WindowManager:
+        def event_timer_add(self, *args, **kwargs):
+            raise RuntimeError("no timer")
+
+        def progress_end(self):
+            pass
+
+    class Operator:
+        pass
+
+    monkeypatch.setattr(bake_ops, "bpy", WithWindow())
+    job = bake_ops.BakeJob([scene.sphere, scene.ground],
+                           bake_ops.BakeSettings(order=4, samples=256, chunk_rays=2048))
+    assert job.plans[0].computation._pending, "the first object's slices should be queued"
+    op = Operator()
+    cls = bake_ops.PRT_OT_bake_transfer
+    op._job = lambda context: job
+    op._cleanup = lambda context: cls._cleanup(op, context)
+    context = types.SimpleNamespace(window=object(), window_manager=WindowManager(), workspace=None,
+                                    screen=None)
+    before = snapshot(bpy)
+    with pytest.raises(RuntimeError, match="no timer"):
+        cls.invoke(op, context, None)
+    assert op not in bake_ops._running
+    assert job._pool._shutdown and all(not t.is_alive() for t in job._pool._threads)
+    assert_unchanged(before, snapshot(bpy))
+
+
 def test_bake_while_another_bake_runs(bpy_module, scene, monkeypatch):
     bpy = bpy_module
     before = snapshot(bpy)

@@ -671,12 +671,20 @@ class PRT_OT_bake_transfer(bpy.types.Operator):
         if job is None:
             return {"CANCELLED"}
         self._bake = job
-        self._steps = job.steps()
-        wm = context.window_manager
-        self._timer = wm.event_timer_add(0.02, window=context.window)
-        wm.progress_begin(0, 100)
-        wm.modal_handler_add(self)
-        _running.add(self)
+        try:
+            self._steps = job.steps()
+            wm = context.window_manager
+            self._timer = wm.event_timer_add(0.02, window=context.window)
+            wm.progress_begin(0, 100)
+            wm.modal_handler_add(self)
+            _running.add(self)
+        except BaseException:
+            # The job's first slices are already running: stop them (nothing was written).
+            try:
+                self._cleanup(context)
+            finally:
+                job.close()
+            raise
         return {"RUNNING_MODAL"}
 
     def _cleanup(self, context):
