@@ -1,7 +1,11 @@
 """The Embree occluder's two ways of giving Embree the triangles: shared buffers (read in place,
 core.embree_buffers) and embreex's own copying TriangleMesh."""
 
+import glob
+import os
+import subprocess
 import sys
+import textwrap
 
 import numpy as np
 import pytest
@@ -90,3 +94,85 @@ def test_attach_refuses_a_committed_scene_and_other_objects():
     assert scene.is_committed == 1
     with pytest.raises(RuntimeError, match="layout"):
         embree_buffers.attach_triangles(object(), vertices, triangles)
+
+
+def test_an_attach_error_falls_back_to_the_copy(monkeypatch):
+    def failing(scene, vertices, triangles):
+        raise RuntimeError("Embree error 3 while attaching shared buffers")
+
+    monkeypatch.setattr(embree_buffers, "attach_triangles", failing)
+    vertices, triangles = wavy_grid(40)
+    origins, directions = random_rays(20_000, 4)
+    occluder = raytrace.EmbreeOccluder(vertices, triangles)
+    assert occluder.geometry == "COPIED"
+    expected = raytrace.EmbreeOccluder(vertices, triangles, shared=False).occluded(origins, directions)
+    np.testing.assert_array_equal(occluder.occluded(origins, directions), expected)
+
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def run_python(code):
+    """Run code in a fresh interpreter of this venv (a crash there fails the test, not pytest)."""
+    env = dict(os.environ, PYTHONPATH=ROOT)
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True,
+                          env=env, cwd=ROOT, timeout=120)
+
+
+BLENDER_EMBREES = sorted(glob.glob(os.path.join(ROOT, ".venv*", "lib", "python3*", "site-packages", "bpy",
+                                                "lib", "libembree4.so*")))
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="shared buffers are Linux only")
+@pytest.mark.parametrize("library", BLENDER_EMBREES or [None], ids=lambda p: str(p).split(os.sep)[-7] if p else "none")
+def test_shared_buffers_use_the_embree_embreex_is_bound_to(library):
+    """The Blender program links its own libembree4, which comes first in the global symbol
+    scope, so embreex's calls go to it rather than to embreex.libs: the shared buffers must be
+    attached through that same library (two copies of Embree must never see each other's
+    objects). Simulated by loading bpy's libembree4 with RTLD_GLOBAL before embreex; bpy 4.2
+    ships Embree 4.3, a different version from embreex's 4.4."""
+    if library is None:
+        pytest.skip("no bpy libembree4 in this checkout's venvs")
+    out = run_python(f"""
+        import ctypes
+        program = ctypes.CDLL({library!r}, mode=ctypes.RTLD_GLOBAL)
+        import numpy as np
+        from prt_addon.core import embree_buffers, raytrace
+        from tests.test_raytrace import random_rays, wavy_grid
+        bound = embree_buffers._ready()
+        address = lambda f: ctypes.cast(f, ctypes.c_void_p).value
+        assert bound is not None and bound.origin == "the program", bound
+        assert address(bound.rtcNewGeometry) == address(program.rtcNewGeometry)
+        vertices, triangles = wavy_grid()
+        origins, directions = random_rays(100_000, 5)
+        shared = raytrace.EmbreeOccluder(vertices, triangles)
+        assert shared.geometry == "SHARED"
+        copied = raytrace.EmbreeOccluder(vertices, triangles, shared=False)
+        assert np.array_equal(shared.occluded(origins, directions), copied.occluded(origins, directions))
+        print("ok")
+    """)
+    assert out.returncode == 0 and out.stdout.strip().endswith("ok"), (out.returncode, out.stdout, out.stderr[-3000:])
+
+
+def test_an_embree_error_is_reported_not_a_crash():
+    """embreex's error callback runs Python: the ctypes calls must hold the GIL (PyDLL), else an
+    Embree error (here a misaligned shared buffer) crashes the process."""
+    if not embree_buffers.available():
+        pytest.skip("shared buffers are not available here")
+    out = run_python("""
+        import numpy as np
+        from embreex import rtcore_scene
+        from prt_addon.core import embree_buffers
+        lib = embree_buffers._ready()
+        scene = rtcore_scene.EmbreeScene()
+        device = lib.rtcGetSceneDevice(embree_buffers._scene_handle(scene))
+        geometry = lib.rtcNewGeometry(device, 0)
+        data = np.zeros(64, np.uint8)
+        lib.rtcSetSharedGeometryBuffer(geometry, 1, 0, 0x9003, data.ctypes.data + 1, 0, 16, 3)
+        error = lib.rtcGetDeviceError(device)
+        lib.rtcReleaseGeometry(geometry)
+        lib.rtcReleaseDevice(device)
+        print("error", error)
+    """)
+    assert out.returncode == 0, (out.returncode, out.stderr[-3000:])
+    assert out.stdout.split()[-1] != "0", out.stdout

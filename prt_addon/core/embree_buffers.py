@@ -4,21 +4,24 @@ embreex's `TriangleMesh` constructor copies the vertices and indices into Embree
 element at a time through Python indexing, holding the GIL: ~0.08 s for 216k triangles, longer
 than Embree's own BVH build. Embree can instead read the caller's arrays in place
 (`rtcSetSharedGeometryBuffer`, Embree 4 API, rtcore_geometry.h); embreex does not expose it, so
-this module calls the same libembree4 that embreex loaded, on the scene handle of an
-`EmbreeScene`.
+this module calls it on the scene handle of an `EmbreeScene`, in the same libembree4 that
+embreex's own calls are bound to (`_bind`).
 
-The scene handle is the first field of the Cython object (`cdef RTCScene scene_i`, then
-`cdef public int is_committed`, rtcore_scene.pxd). That layout is checked on every call through
-the public `is_committed` field, and the whole path is checked once per process by tracing known
-rays; when anything does not match, `attach_triangles` is not offered (`available()` is False)
-and the caller uses `TriangleMesh`. Enabled on Linux only, where it is tested.
+The scene handle is the first field of the Cython object (`cdef RTCScene scene_i`, `cdef public
+int is_committed`, `cdef EmbreeDevice device`; rtcore_scene.pxd). That layout is checked on
+every call (the public `is_committed` and the device object must be found at their offsets), and
+the whole path is checked once per process by tracing known rays. When anything does not match,
+`available()` is False and the caller uses `TriangleMesh`. Enabled on Linux only, where it is
+tested.
 """
 
 import ctypes
+import gc
 import glob
 import os
 import sys
 import threading
+import types
 
 import numpy as np
 
@@ -30,11 +33,26 @@ _FORMAT_UINT3 = 0x5003
 _FORMAT_FLOAT3 = 0x9003
 _NO_ERROR = 0
 
+_P = ctypes.c_void_p
+_SIGNATURES = {
+    "rtcGetSceneDevice": (_P, [_P]),
+    "rtcReleaseDevice": (None, [_P]),
+    "rtcGetDeviceError": (ctypes.c_int, [_P]),
+    "rtcNewGeometry": (_P, [_P, ctypes.c_int]),
+    "rtcSetSharedGeometryBuffer": (
+        None, [_P, ctypes.c_int, ctypes.c_uint, ctypes.c_int, _P, ctypes.c_size_t, ctypes.c_size_t,
+               ctypes.c_size_t]),
+    "rtcCommitGeometry": (None, [_P]),
+    "rtcAttachGeometry": (ctypes.c_uint, [_P, _P]),
+    "rtcReleaseGeometry": (None, [_P]),
+}
+
 _lock = threading.Lock()
 _state = {}
 
 
 def _library_path():
+    """embreex's own copy of libembree4 (the wheel's embreex.libs), or None."""
     if not sys.platform.startswith("linux"):
         return None
     try:
@@ -46,25 +64,25 @@ def _library_path():
     return found[0] if len(found) == 1 else None
 
 
-def _load(path):
-    lib = ctypes.CDLL(path)  # already loaded by embreex: the same handle, the same Embree
-    p = ctypes.c_void_p
-    signatures = {
-        "rtcGetSceneDevice": (p, [p]),
-        "rtcReleaseDevice": (None, [p]),
-        "rtcGetDeviceError": (ctypes.c_int, [p]),
-        "rtcNewGeometry": (p, [p, ctypes.c_int]),
-        "rtcSetSharedGeometryBuffer": (
-            None, [p, ctypes.c_int, ctypes.c_uint, ctypes.c_int, p, ctypes.c_size_t, ctypes.c_size_t,
-                   ctypes.c_size_t]),
-        "rtcCommitGeometry": (None, [p]),
-        "rtcAttachGeometry": (ctypes.c_uint, [p, p]),
-        "rtcReleaseGeometry": (None, [p]),
-    }
-    for name, (restype, argtypes) in signatures.items():
-        function = getattr(lib, name)
+def _bind(path):
+    """The Embree functions embreex's extension modules call, and where they come from.
+
+    The dynamic linker resolves a symbol of a dlopen()ed module in the global scope (the program,
+    its libraries and RTLD_GLOBAL ones) before the module's own dependencies. A Blender program
+    linked with its own libembree4 therefore makes embreex call that one; bpy imported as a
+    Python module keeps it private, and embreex calls the copy in embreex.libs. Calling the
+    other copy would mix the objects of two Embree libraries. PyDLL, not CDLL: the calls keep the
+    GIL, because the error callback embreex installs on the device runs Python code.
+    """
+    source = ctypes.PyDLL(None)  # the global scope
+    if not hasattr(source, "rtcNewScene"):
+        source = ctypes.PyDLL(path)  # already loaded by embreex: the same handle
+    functions = {}
+    for name, (restype, argtypes) in _SIGNATURES.items():
+        function = getattr(source, name)
         function.restype, function.argtypes = restype, argtypes
-    return lib
+        functions[name] = function
+    return types.SimpleNamespace(origin=source._name or "the program", **functions)
 
 
 def _scene_handle(scene):
@@ -73,6 +91,9 @@ def _scene_handle(scene):
 
     address = id(scene)
     if type(scene) is not EmbreeScene or EmbreeScene.__basicsize__ != 40:
+        raise RuntimeError("unexpected EmbreeScene layout")
+    devices = [r for r in gc.get_referents(scene) if type(r).__name__ == "EmbreeDevice"]
+    if len(devices) != 1 or ctypes.c_void_p.from_address(address + 32).value != id(devices[0]):
         raise RuntimeError("unexpected EmbreeScene layout")
     saved = scene.is_committed
     try:
@@ -132,7 +153,8 @@ def _self_test(lib, scene_type):
 
 
 def _ready():
-    """The loaded library when the shared path works here, else None (decided once)."""
+    """The bound Embree functions (`_bind`) when the shared path works here, else None (decided
+    once per process)."""
     with _lock:
         if "lib" not in _state:
             _state["lib"] = None
@@ -141,10 +163,10 @@ def _ready():
                 try:
                     from embreex import rtcore_scene
 
-                    lib = _load(path)
+                    lib = _bind(path)
                     if _self_test(lib, rtcore_scene.EmbreeScene):
                         _state["lib"] = lib
-                except (OSError, AttributeError, RuntimeError, TypeError):
+                except Exception:  # noqa: BLE001 - whatever fails here, the copy is used
                     pass
         return _state["lib"]
 

@@ -71,12 +71,15 @@ class EmbreeOccluder:
             raise ValueError("an occluder needs at least one triangle")
         self.triangle_count = len(t)
         self._scene = _embree_scene.EmbreeScene(robust=robust)
+        self.geometry = "COPIED"
         if shared and embree_buffers.available():
-            self._buffers = embree_buffers.attach_triangles(self._scene, v, t)
-            self.geometry = "SHARED"
-        else:
+            try:
+                self._buffers = embree_buffers.attach_triangles(self._scene, v, t)
+                self.geometry = "SHARED"
+            except RuntimeError:  # an Embree error: copy instead, into a scene not touched yet
+                self._scene = _embree_scene.EmbreeScene(robust=robust)
+        if self.geometry == "COPIED":
             self._mesh = _embree_mesh.TriangleMesh(self._scene, v, t)
-            self.geometry = "COPIED"
         self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
 
     def occluded(self, origins, directions):
