@@ -125,6 +125,20 @@ def bake_phases(objects, samples):
     return report, (w_prep + w_comp + w_write, w_comp, c_prep + c_comp + c_write, c_comp)
 
 
+def williams_orders(n):
+    """Williams design (E. J. Williams, Aust. J. Sci. Res. 2, 1949): orders of n treatments in
+    which each one follows every other equally often (2n rows for odd n, n for even n)."""
+    first, low, high = [0], 1, n - 1
+    while len(first) < n:
+        first.append(low)
+        low += 1
+        if len(first) < n:
+            first.append(high)
+            high -= 1
+    rows = [[(t + shift) % n for t in first] for shift in range(n)]
+    return rows + [row[::-1] for row in rows] if n % 2 else rows
+
+
 def spread(values):
     v = np.asarray(values)
     return f"median {np.median(v):.3f} [{v.min():.3f} - {v.max():.3f}]"
@@ -142,11 +156,10 @@ def throughput(args):
         api.bake(objects, order=4, samples=64)  # warm-up (imports, first-use costs)
         vertices, triangles, origins, dirs, batches = same_rays(objects, args.samples)
         occ = raytrace.EmbreeOccluder(vertices, triangles)
-        # Interleaved repeats (the machine is shared and noisy): medians, ratios per repeat.
-        # Interleaved repeats (the machine is shared and noisy), each in a rotated order: a run
-        # is slowed by the one before it (measured: the bake by ~8 % after the one-run()-per-
-        # thread call, which allocates ~60 MB, and after RB; by ~2 % after R), so every
-        # measurement follows each of the others equally often. Medians; ratios per repeat.
+        # Interleaved repeats (the machine is shared and noisy). A run is slowed by the one
+        # before it (measured: the bake by ~8 % after the one-run()-per-thread call, which
+        # allocates ~60 MB, or after RB; ~2 % after R), so repeat r runs in the order of row r of
+        # a Williams design: over 10 repeats every run comes after every other exactly twice.
         runs = {
             "bake": lambda: bake_phases(objects, args.samples),
             "whole": lambda: raw_embree_seconds(occ, origins, dirs, 2),
@@ -155,10 +168,11 @@ def throughput(args):
             "shared": lambda: raw_build_and_batches_seconds(vertices, triangles, batches, 2, True),
         }
         names = list(runs)
+        orders = williams_orders(len(names))
         out = {name: [] for name in names}
         for r in range(args.repeats):
-            for name in names[r % len(names):] + names[:r % len(names)]:
-                out[name].append(runs[name]())
+            for index in orders[r % len(orders)]:
+                out[names[index]].append(runs[names[index]]())
         report = out["bake"][-1][0]
         bake_s, compute_s, bake_cpu, compute_cpu = np.array([phases for _r, phases in out["bake"]]).T
         whole_s, batched_s, shared_s = (np.array(out[name]) for name in ("whole", "batched", "shared"))
@@ -169,7 +183,7 @@ def throughput(args):
         print(f"rays traced {rays:,}, skipped {report.rays_skipped:,} "
               f"(below horizon {report.skipped_below_horizon:,}, nothing to occlude "
               f"{report.skipped_unoccludable:,}); {len(batches)} batches of ~{rays // len(batches):,} rays")
-        print(f"{args.repeats} interleaved repeats (rotated order); wall seconds as median [min - max]:")
+        print(f"{args.repeats} interleaved repeats (Williams order); wall seconds as median [min - max]:")
         print(f"  bake, whole api.bake call                  {spread(bake_s)}  {m(bake_s):6.2f} Mrays/s")
         print(f"  bake, compute (trace+projection)           {spread(compute_s)}  {m(compute_s):6.2f} Mrays/s")
         print(f"  raw embreex, one run() per thread          {spread(whole_s)}  {m(whole_s):6.2f} Mrays/s")
@@ -179,7 +193,9 @@ def throughput(args):
         print(f"  raw embreex, shared buffers + BVH build + batches RBs {spread(shared_s)}  "
               f"{m(shared_s):6.2f} Mrays/s")
         print("ratios per repeat (raw time / bake time), median [min - max]; target >= 0.85 for the")
-        print("whole call (the bake's BVH build overlaps the job's set-up, so it is not in compute):")
+        print("whole call against raw embreex as it ships (RB); against the same shared-buffer build")
+        print("(RBs) and against tracing alone (R) below it. The first object's slices start during")
+        print("the job's set-up, so compute misses a few of them (compute ratios read 1-3 % high):")
         print(f"  whole call / RB (+ extraction, writing) wall {spread(built_s / bake_s)}   "
               f"CPU {spread(built_cpu / bake_cpu)}")
         print(f"  whole call / RBs                    wall {spread(shared_s / bake_s)}")
@@ -237,7 +253,7 @@ def main():
     parser.add_argument("--memory-child", type=int, default=0)
     parser.add_argument("--side", type=int, default=1000)
     parser.add_argument("--no-memory", action="store_true")
-    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--repeats", type=int, default=10)
     args = parser.parse_args()
     if args.memory_child:
         memory_child(args.memory_child, args.side)
