@@ -126,8 +126,9 @@ BLENDER_EMBREES = sorted(glob.glob(os.path.join(ROOT, ".venv*", "lib", "python3*
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="shared buffers are Linux only")
 @pytest.mark.parametrize("library", BLENDER_EMBREES or [None], ids=lambda p: str(p).split(os.sep)[-7] if p else "none")
 def test_shared_buffers_use_the_embree_embreex_is_bound_to(library):
-    """The Blender program links its own libembree4, which comes first in the global symbol
-    scope, so embreex's calls go to it rather than to embreex.libs: the shared buffers must be
+    """When the program links its own libembree4 (as a Blender program may: Blender ships one),
+    it comes first in the global symbol scope and embreex's calls go to it, not to
+    embreex.libs: the shared buffers must be
     attached through that same library (two copies of Embree must never see each other's
     objects). Simulated by loading bpy's libembree4 with RTLD_GLOBAL before embreex; bpy 4.2
     ships Embree 4.3, a different version from embreex's 4.4."""
