@@ -119,21 +119,28 @@ def run_python(code):
                           env=env, cwd=ROOT, timeout=120)
 
 
-BLENDER_EMBREES = sorted(glob.glob(os.path.join(ROOT, ".venv*", "lib", "python3*", "site-packages", "bpy",
-                                                "lib", "libembree4.so*")))
+def blender_embrees():
+    """bpy's own libembree4 in each of this checkout's venvs (looked up when the test runs: the
+    venvs of bpy 4.2 and 4.5 are made by tests/test_install.py, earlier in the same run)."""
+    return sorted(glob.glob(os.path.join(ROOT, ".venv*", "lib", "python3*", "site-packages", "bpy", "lib",
+                                         "libembree4.so*")))
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="shared buffers are Linux only")
-@pytest.mark.parametrize("library", BLENDER_EMBREES or [None], ids=lambda p: str(p).split(os.sep)[-7] if p else "none")
-def test_shared_buffers_use_the_embree_embreex_is_bound_to(library):
+def test_shared_buffers_use_the_embree_embreex_is_bound_to():
     """When the program links its own libembree4 (as a Blender program may: Blender ships one),
-    it comes first in the global symbol scope and embreex's calls go to it, not to
-    embreex.libs: the shared buffers must be
-    attached through that same library (two copies of Embree must never see each other's
-    objects). Simulated by loading bpy's libembree4 with RTLD_GLOBAL before embreex; bpy 4.2
-    ships Embree 4.3, a different version from embreex's 4.4."""
-    if library is None:
+    it comes first in the global symbol scope and embreex's calls go to it, not to embreex.libs:
+    the shared buffers must be attached through that same library (two copies of Embree must
+    never see each other's objects). Simulated by loading bpy's libembree4 with RTLD_GLOBAL
+    before embreex; bpy 4.2 ships Embree 4.3, a different version from embreex's 4.4."""
+    libraries = blender_embrees()
+    if not libraries:
         pytest.skip("no bpy libembree4 in this checkout's venvs")
+    for library in libraries:
+        check_bound_to(library)
+
+
+def check_bound_to(library):
     out = run_python(f"""
         import ctypes
         program = ctypes.CDLL({library!r}, mode=ctypes.RTLD_GLOBAL)
@@ -152,7 +159,8 @@ def test_shared_buffers_use_the_embree_embreex_is_bound_to(library):
         assert np.array_equal(shared.occluded(origins, directions), copied.occluded(origins, directions))
         print("ok")
     """)
-    assert out.returncode == 0 and out.stdout.strip().endswith("ok"), (out.returncode, out.stdout, out.stderr[-3000:])
+    assert out.returncode == 0 and out.stdout.strip().endswith("ok"), (library, out.returncode, out.stdout,
+                                                                         out.stderr[-3000:])
 
 
 def test_an_embree_error_is_reported_not_a_crash():
