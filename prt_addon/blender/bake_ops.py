@@ -147,8 +147,9 @@ class _LazyOccluder:
     def start(self, pool):
         """Build in the background on `pool` (Embree only: the BVH build releases the GIL, and
         attaching the triangles as shared buffers takes microseconds where embreex's copying
-        constructor would hold the GIL for its whole copy) while the caller prepares the rest. A failure there is not raised: the first
-        query builds again and raises it, as without start()."""
+        constructor would hold the GIL for its whole copy) while the caller prepares the rest.
+        A failure there is not raised: the first query builds again and raises it, as without
+        start()."""
         if self.name == "EMBREE" and self._started is None:
             self._started = pool.submit(self._build_quietly)
 

@@ -410,8 +410,7 @@ class TransferComputation:
             raise Cancelled()
         if self.done >= self.total:
             return False
-        if self._started is None:
-            self._started = time.perf_counter()
+        self.start()
         for _ in range(self.threads * SLICES_PER_THREAD):
             if self.threads > 1:
                 # Slices stay queued ahead of the one collected, so a worker that finishes takes
