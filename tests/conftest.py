@@ -1,6 +1,7 @@
 """Shared fixtures. Core tests need only numpy; Blender-layer tests use the `bpy` module."""
 
 import os
+import time
 
 import numpy as np
 import pytest
@@ -46,3 +47,13 @@ def random_directions(count, seed):
     rng = np.random.default_rng(seed)
     d = rng.normal(size=(count, 3))
     return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def process_cpu_per_wall_second(seconds=0.06):
+    """CPU seconds of this whole process per wall second while this thread runs small numpy
+    operations: about 1 with one busy thread, about 2 when another thread spins meanwhile."""
+    data = np.random.default_rng(0).random(50_000)
+    w0, c0 = time.perf_counter(), time.process_time()
+    while time.perf_counter() - w0 < seconds:
+        np.sin(data)
+    return (time.process_time() - c0) / (time.perf_counter() - w0)

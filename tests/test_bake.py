@@ -1,6 +1,7 @@
 """The transfer bake in Blender: operator, API, backends, storage, staleness, failure safety."""
 
 import json
+import time
 import types
 from concurrent.futures import ThreadPoolExecutor
 
@@ -9,6 +10,7 @@ import pytest
 
 pytestmark = pytest.mark.blender
 
+from conftest import process_cpu_per_wall_second  # noqa: E402
 from prt_addon.core import analytic, raytrace, transfer  # noqa: E402
 
 
@@ -535,3 +537,26 @@ def test_bad_seed_is_refused_before_any_ray(empty_scene, bpy_module, mesh_io, mo
         with pytest.raises(ValueError, match="seed must be an integer >= 0"):
             api.bake([plane], seed=seed)
     assert "prt_bake" not in plane.data
+
+
+def test_bake_set_up_leaves_no_blas_thread_spinning(empty_scene, bpy_module, bake_ops):
+    """Reading and transforming ~32k vertices (rotated and scaled) must not wake numpy's BLAS
+    threads, whose spinning would take a core from the tracing threads (core.serial_blas)."""
+    bpy = bpy_module
+    bpy.ops.mesh.primitive_monkey_add(rotation=(0.3, 0.2, 0.1), scale=(1, 2, 3))
+    monkey = bpy.context.object
+    monkey.modifiers.new("s", "SUBSURF").levels = 3
+    bpy.ops.object.modifier_apply(modifier="s")
+    monkey.data.shade_smooth()
+    assert len(monkey.data.vertices) > 30_000
+    time.sleep(0.3)
+    np.random.default_rng(0).random((40_000, 3)) @ np.eye(3)
+    if process_cpu_per_wall_second() < 1.5:
+        pytest.skip("this numpy's BLAS does not spin after a threaded product")
+    time.sleep(0.3)
+    job = bake_ops.BakeJob([monkey], bake_ops.BakeSettings(order=4, samples=64, threads=1,
+                                                           shadows=False))
+    try:
+        assert process_cpu_per_wall_second() < 1.3
+    finally:
+        job.close()

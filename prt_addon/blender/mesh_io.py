@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.serial_blas import matmul_serial
+
 PREFIX = "prt_t"
 RECORD = "prt_bake"
 FORMAT_VERSION = 1
@@ -89,18 +91,19 @@ def matrix_to_numpy(matrix):
 
 def transform_points(matrix4, points):
     m = np.asarray(matrix4, dtype=np.float64)
-    return np.asarray(points, dtype=np.float64) @ m[:3, :3].T + m[:3, 3]
+    return matmul_serial(np.asarray(points, dtype=np.float64), m[:3, :3].T) + m[:3, 3]
 
 
 def transform_normals(matrix4, normals):
     """Normals under the inverse transpose of the linear part, renormalised (0 stays 0)."""
     linear = np.asarray(matrix4, dtype=np.float64)[:3, :3]
-    try:
-        normal_matrix = np.linalg.inv(linear).T
-    except np.linalg.LinAlgError:
-        normal_matrix = linear
-    n = np.asarray(normals, dtype=np.float64) @ normal_matrix.T
-    length = np.linalg.norm(n, axis=1, keepdims=True)
+    # inv(linear)^T = cofactor matrix / det (rows: cross products of the rows). Not
+    # np.linalg.inv, whose LAPACK call leaves an OpenBLAS thread spinning (core.serial_blas).
+    cofactor = np.cross(linear[[1, 2, 0]], linear[[2, 0, 1]])
+    det = float(np.dot(linear[0], cofactor[0]))
+    normal_matrix = cofactor / det if det != 0.0 and np.isfinite(det) else linear
+    n = matmul_serial(np.asarray(normals, dtype=np.float64), normal_matrix.T)
+    length = np.sqrt(np.einsum("ij,ij->i", n, n))[:, None]
     return np.divide(n, length, out=np.zeros_like(n), where=length > 1e-30)
 
 

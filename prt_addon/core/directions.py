@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .serial_blas import matmul_serial
 from .sh import FOUR_PI, check_order, sh_basis
 
 KINDS = ("FIBONACCI", "STRATIFIED", "UNIFORM")
@@ -58,7 +59,7 @@ def fibonacci_directions(count, rng=None):
     k = np.arange(count, dtype=np.float64)
     d = _from_z_phi(1.0 - (2.0 * k + 1.0) / count, k * GOLDEN_ANGLE)
     if rng is not None:
-        d = d @ random_rotation(rng).T
+        d = matmul_serial(d, random_rotation(rng).T)
     return d
 
 

@@ -26,6 +26,7 @@ Culling (no rays where nothing can occlude), used by prt_addon.core.transfer:
 import numpy as np
 
 from . import embree_buffers
+from .serial_blas import matmul_serial
 
 try:  # the wheel exists for x86_64 Linux/Windows and macOS only
     from embreex import mesh_construction as _embree_mesh
@@ -108,7 +109,8 @@ def box_can_occlude(points, normals, boxes):
     n = np.asarray(normals, dtype=np.float64)
     centre = 0.5 * (boxes[:, 0] + boxes[:, 1])
     half = 0.5 * (boxes[:, 1] - boxes[:, 0])
-    height = n @ centre.T + np.abs(n) @ half.T - np.einsum("ij,ij->i", p, n)[:, None]
+    height = (matmul_serial(n, centre.T) + matmul_serial(np.abs(n), half.T)
+              - np.einsum("ij,ij->i", p, n)[:, None])
     return (height > 0.0).any(axis=1)
 
 
@@ -132,12 +134,14 @@ def is_planar(vertices, triangles, rel_tol=1e-6):
     if len(t) == 0:
         return False
     used = v[_used_vertices(t, len(v))]
-    scale = np.linalg.norm(used.max(axis=0) - used.min(axis=0))
+    lower, upper = bounding_box(used)
+    scale = np.linalg.norm(upper - lower)
     if scale == 0.0:
         return False
-    centred = used - used.mean(axis=0)
-    normal = np.linalg.eigh(centred.T @ centred)[1][:, 0]
-    return bool(np.abs(centred @ normal).max() <= rel_tol * scale)
+    centred = used - np.array([used[:, i].mean() for i in range(3)])
+    # (einsum and matmul_serial: no threaded BLAS, see core.serial_blas)
+    normal = np.linalg.eigh(np.einsum("ij,ik->jk", centred, centred))[1][:, 0]
+    return bool(np.abs(matmul_serial(centred, normal)).max() <= rel_tol * scale)
 
 
 def is_closed_convex(vertices, triangles, rel_tol=1e-6):

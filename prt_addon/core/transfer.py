@@ -57,6 +57,7 @@ import numpy as np
 from .directions import DirectionSet
 from .sh import check_order
 from .raytrace import box_can_occlude
+from .serial_blas import matmul_serial
 
 CHUNK_RAYS = 1 << 18
 SLICES_PER_THREAD = 4  # slices per step() and thread
@@ -66,28 +67,6 @@ SLICES_PER_THREAD = 4  # slices per step() and thread
 # tiled directions table (16, shared by the threads). Checked with tracemalloc in
 # tests/test_transfer.py.
 RAY_BYTES = 80
-
-
-# OpenBLAS runs a matrix product on its own thread pool when m * n * k exceeds about 2^18 (the
-# default SMP threshold), and its spinning workers then fight the two tracing threads for the
-# two cores: measured, the 2-thread bake became slower than the 1-thread one. Products are
-# therefore split by rows to stay below that size, which keeps every BLAS call serial.
-BLAS_SERIAL_MNK = 1 << 18
-
-
-def _matmul_rows(a, b, out=None, accumulate=False):
-    """a @ b (or out += a @ b) computed in row blocks small enough for a serial BLAS call."""
-    rows = max(1, BLAS_SERIAL_MNK // max(1, a.shape[1] * b.shape[1]))
-    if out is None:
-        out = np.empty((a.shape[0], b.shape[1]), dtype=np.result_type(a, b))
-        accumulate = False
-    for r0 in range(0, a.shape[0], rows):
-        r1 = min(a.shape[0], r0 + rows)
-        if accumulate:
-            out[r0:r1] += a[r0:r1] @ b
-        else:
-            np.matmul(a[r0:r1], b, out=out[r0:r1])
-    return out
 
 
 class Cancelled(Exception):
@@ -297,7 +276,7 @@ class TransferComputation:
         n_pts, cols = hi - lo, k1 - k0
         size = n_pts * cols
         weight = ws["weight"][:size].reshape(n_pts, cols)
-        _matmul_rows(self.normals[lo:hi], self.dirs64T[:, k0:k1], out=weight)
+        matmul_serial(self.normals[lo:hi], self.dirs64T[:, k0:k1], out=weight)
         above = ws["above"][:size].reshape(n_pts, cols)
         np.greater(weight, 0.0, out=above)
         np.maximum(weight, 0.0, out=weight)
@@ -371,7 +350,7 @@ class TransferComputation:
             for g in range(len(bounds) - 1):
                 a, b = max(bounds[g], k0), min(bounds[g + 1], k1)
                 if a < b:
-                    _matmul_rows(weight[:, a - k0 : b - k0], self.basis[a:b], sums[g], accumulate=True)
+                    matmul_serial(weight[:, a - k0 : b - k0], self.basis[a:b], sums[g], accumulate=True)
         scale = 4.0  # 4 pi / N * (1 / pi) per direction, times N
         t = sums.sum(axis=0)
         t *= scale / self.n_dirs
