@@ -227,8 +227,8 @@ def _scene_parts(depsgraph, cache=None):
         with np.errstate(invalid="ignore", over="ignore"):  # NaN/Inf vertices: dropped below
             world = mesh_io.transform_points(mesh_io.matrix_to_numpy(inst.matrix_world), positions)
             world = world.astype(np.float32)
-        finite = np.isfinite(world).all(axis=1)
-        if not finite.all():  # NaN/Inf vertices cannot occlude anything: drop their triangles
+        if not np.isfinite(world).all():  # NaN/Inf vertices cannot occlude: drop their triangles
+            finite = np.isfinite(world).all(axis=1)
             world = np.where(finite[:, None], world, np.float32(0.0))
             triangles = triangles[finite[triangles].all(axis=1)]
             if len(triangles) == 0:
@@ -332,12 +332,13 @@ class BakeJob:
             return "has a non-finite transform (NaN or infinity in location, rotation or scale)"
         cached = self._reads.get(mesh_eval.as_pointer())
         positions = cached[0] if cached else mesh_io.read_positions(mesh_eval)
-        bad = int(np.count_nonzero(~np.isfinite(positions).all(axis=1)))
-        if bad:
+        if not np.isfinite(positions).all():
+            bad = int(np.count_nonzero(~np.isfinite(positions).all(axis=1)))
             return (f"has {bad} vertices with non-finite coordinates (NaN or infinity): fix or delete "
                     "them (e.g. in Edit Mode, Mesh > Clean Up), then bake again")
         world = mesh_io.transform_points(matrix, positions)
-        diagonal = float(np.linalg.norm(world.max(axis=0) - world.min(axis=0)))
+        lower, upper = raytrace.bounding_box(world)
+        diagonal = float(np.linalg.norm(upper - lower))
         if not diagonal > 0.0 or abs(np.linalg.det(matrix[:3, :3])) < 1e-30:
             return ("has zero size (all its vertices are at one point, or a scale of 0): "
                     "its faces have no area to bake")

@@ -146,11 +146,9 @@ def _xyz(rays16):
 
 def _unit_normals(normals):
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
-    length = np.linalg.norm(n, axis=1)
+    length = np.sqrt(np.einsum("ij,ij->i", n, n))  # (np.linalg.norm(axis=1) is ~4 times slower)
     ok = np.isfinite(length) & (length > 1e-12)
-    out = np.zeros_like(n)
-    out[ok] = n[ok] / length[ok, None]
-    return out
+    return np.divide(n, length[:, None], out=np.zeros_like(n), where=ok[:, None])
 
 
 class TransferComputation:
