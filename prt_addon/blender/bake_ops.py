@@ -219,7 +219,8 @@ def _scene_parts(depsgraph, cache=None):
         mesh = ob.data
         key = mesh.as_pointer()
         if key not in cache:
-            cache[key] = (mesh_io.read_positions(mesh), mesh_io.read_triangles(mesh))
+            positions = mesh_io.read_positions(mesh)
+            cache[key] = (positions, mesh_io.read_triangles(mesh, positions))
         positions, triangles = cache[key]
         if len(triangles) == 0:
             continue
@@ -343,7 +344,7 @@ class BakeJob:
             return ("has zero size (all its vertices are at one point, or a scale of 0): "
                     "its faces have no area to bake")
         seen_meshes[mesh.name] = name
-        triangles = cached[1] if cached else mesh_io.read_triangles(mesh_eval)
+        triangles = cached[1] if cached else mesh_io.read_triangles(mesh_eval, positions)
         offset = max(OFFSET_REL * diagonal, OFFSET_ULP * float(np.abs(world).max()), 1e-30)
         self_occludes = True
         if self.settings.cull and not mesh_eval.has_custom_normals:

@@ -76,13 +76,62 @@ def read_face_starts(mesh):
     return out
 
 
-def read_triangles(mesh):
-    """(T, 3) int32 vertex indices of the mesh's loop triangles."""
-    mesh.calc_loop_triangles()
-    out = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
-    if len(out):
-        mesh.loop_triangles.foreach_get("vertices", out)
-    return out.reshape(-1, 3)
+def read_triangles(mesh, positions=None):
+    """(T, 3) int32 vertex indices of the mesh's loop triangles, in Blender's order.
+
+    Meshes of triangles and quads are triangulated here as Blender does it, ~8 times faster than
+    reading mesh.loop_triangles (whose foreach_get goes element by element); meshes with n-gons
+    read loop_triangles. positions: the mesh's vertex positions if already read.
+    """
+    corner_verts = read_corner_verts(mesh)
+    starts = read_face_starts(mesh)
+    sizes = np.diff(starts, append=np.int32(len(corner_verts)))
+    if len(starts) == 0 or not ((sizes == 3) | (sizes == 4)).all():
+        mesh.calc_loop_triangles()
+        out = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+        if len(out):
+            mesh.loop_triangles.foreach_get("vertices", out)
+        return out.reshape(-1, 3)
+    positions = read_positions(mesh) if positions is None else positions
+    return triangulate_quads(corner_verts, starts, sizes, positions)
+
+
+def triangulate_quads(corner_verts, starts, sizes, positions):
+    """Vertex triangles of faces of 3 or 4 corners, as Blender's mesh tessellation
+    (blenkernel mesh_tessellate.cc): a triangle is (0, 1, 2); a quad is (0, 1, 2), (0, 2, 3),
+    or (0, 1, 3), (1, 2, 3) when the first split folds over (blenlib's
+    is_quad_flip_v3_first_third_fast: (v2 - v1) x (v3 - v1) . (v4 - v1) x (v3 - v1) > 0,
+    computed in float32 in the same order)."""
+    per_face = sizes - 2
+    first = np.cumsum(per_face) - per_face  # each face's first triangle
+    corners = np.empty((int(per_face.sum()), 3), dtype=np.int32)
+    tri = sizes == 3
+    corners[first[tri]] = starts[tri, None] + np.int32([0, 1, 2])
+    quad = ~tri
+    if quad.any():
+        quad_start, quad_first = starts[quad], first[quad]
+        # Coordinates column by column (contiguous gathers; 12-byte rows gather element-wise).
+        columns = np.ascontiguousarray(np.asarray(positions, dtype=np.float32).T)
+        v = [[c[corner_verts[quad_start + i]] for c in columns] for i in range(4)]
+        d12, d13, d14 = ([a - b for a, b in zip(v[i], v[0])] for i in (1, 2, 3))
+
+        def cross(a, b):
+            return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+        with np.errstate(invalid="ignore", over="ignore"):  # non-finite positions: no flip
+            ca, cb = cross(d12, d13), cross(d14, d13)
+            flip = ((ca[0] * cb[0] + ca[1] * cb[1] + ca[2] * cb[2]) > np.float32(0.0)).view(np.int8)
+        pair = np.empty((len(quad_start), 2, 3), dtype=np.int32)
+        pair[:] = quad_start[:, None, None]
+        pair += np.int32([[0, 1, 2], [0, 2, 3]])
+        pair[:, 0, 2] += flip  # (0, 1, 3)
+        pair[:, 1, 0] += flip  # (1, 2, 3)
+        if len(quad_start) == len(starts):  # quads only: the pairs are the triangles in order
+            corners = pair.reshape(-1, 3)
+        else:
+            corners[quad_first] = pair[:, 0]
+            corners[quad_first + 1] = pair[:, 1]
+    return corner_verts[corners]
 
 
 def matrix_to_numpy(matrix):
