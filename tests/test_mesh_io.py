@@ -1,4 +1,5 @@
-"""Mesh reading for the bake: triangles as Blender's own loop triangles."""
+"""Mesh reading for the bake: triangles as Blender's own loop triangles, and the per-vertex or
+per-corner choice of bake points."""
 
 import numpy as np
 import pytest
@@ -92,3 +93,38 @@ def test_read_triangles_with_ngons_and_without_faces(empty_scene, bpy_module, me
     np.testing.assert_array_equal(mesh_io.read_triangles(cylinder), _loop_triangles(cylinder))
     points = _mesh(bpy, "points", [(0, 0, 0), (1, 0, 0)], [])
     assert mesh_io.read_triangles(points).shape == (0, 3)
+
+
+def test_flat_grid_with_rounded_normals_bakes_per_vertex(empty_scene, bpy_module, mesh_io):
+    """A flat-shaded grid's face normals come out as (0, 0, 1) or (0, 0, 0.99999994) depending
+    on the face; still one normal per vertex, so one bake point per vertex (POINT)."""
+    bpy = bpy_module
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=150, y_subdivisions=150, size=8)
+    mesh = bpy.context.object.data
+    assert mesh.normals_domain != "POINT"
+    normals = mesh_io.read_corner_normals(mesh)
+    assert len(np.unique(normals, axis=0)) > 1  # not bit-identical: the case under test
+    points = mesh_io.bake_points(mesh, np.eye(4))
+    assert points.domain == "POINT" and len(points.positions) == len(mesh.vertices)
+    np.testing.assert_allclose(points.normals, np.tile([0.0, 0.0, 1.0], (len(mesh.vertices), 1)),
+                               atol=1e-6)
+
+
+def test_vertex_normal_pairs_merges_only_within_tolerance(mesh_io):
+    """Corner normals of one vertex within NORMAL_TOLERANCE are one pair; farther ones, and the
+    same normal at another vertex, stay separate; inverse maps each corner to its pair."""
+    tol = mesh_io.NORMAL_TOLERANCE
+    up = np.array([0.0, 0.0, 1.0], np.float32)
+    tilted = np.array([0.0, 3 * tol, 1.0], np.float32)
+    nudged = np.array([0.0, 0.3 * tol, 1.0], np.float32)
+    corner_verts = np.array([2, 2, 0, 1, 0, 1], np.int32)
+    normals = np.array([up, nudged, up, tilted, up, up])
+    vert, pair_normals, inverse = mesh_io.vertex_normal_pairs(corner_verts, normals, 4)
+    np.testing.assert_array_equal(vert, [0, 1, 1, 2])  # vertex 3 has no corner
+    np.testing.assert_array_equal(vert[inverse], corner_verts)
+    np.testing.assert_allclose(pair_normals[inverse], normals, atol=tol)
+    assert inverse[3] != inverse[5]  # tilted stays its own pair
+    # All corners within tolerance: one pair per vertex that has corners, in vertex order.
+    vert, pair_normals, inverse = mesh_io.vertex_normal_pairs(corner_verts[:3], normals[:3], 3)
+    np.testing.assert_array_equal(vert, [0, 2])
+    np.testing.assert_array_equal(inverse, [1, 1, 0])

@@ -188,48 +188,67 @@ def _vertex_points(matrix4, positions, normals):
     )
 
 
+# Corner normals of one vertex that differ by at most this much in every component count as
+# one normal: a flat grid's faces get normals of (0, 0, 1) and (0, 0, 0.99999994) from rounding,
+# which would otherwise split its vertices into corners. The transfer changes by ~1e-6.
+NORMAL_TOLERANCE = 1e-6
+
+
+def vertex_normal_pairs(corner_verts, corner_normals, vertex_count):
+    """The unique (vertex, normal) pairs of a mesh's corners: (vertex index, normal, inverse),
+    sorted by vertex, with inverse mapping each corner to its pair. Corner normals within
+    NORMAL_TOLERANCE of their vertex's reference normal (one of its corners') are that normal."""
+    corner_normals = np.asarray(corner_normals, dtype=np.float32).reshape(-1, 3)
+    reference = np.zeros((vertex_count, 3), dtype=np.float32)
+    reference[corner_verts] = corner_normals  # one of the vertex's corners (the last written)
+    at_reference = reference[corner_verts]
+    close = np.ones(len(corner_verts), dtype=bool)
+    for axis in range(3):  # (column by column: faster than a reduction along axis 1)
+        close &= np.abs(corner_normals[:, axis] - at_reference[:, axis]) <= NORMAL_TOLERANCE
+    if close.all():
+        has_corner = np.zeros(vertex_count, dtype=bool)
+        has_corner[corner_verts] = True
+        vert = np.flatnonzero(has_corner)
+        position = np.cumsum(has_corner) - 1
+        return vert, reference[vert], position[corner_verts]
+    snapped = np.where(close[:, None], at_reference, corner_normals)
+    bits = np.ascontiguousarray(snapped).view(np.int32)
+    # np.unique(rows, axis=0, return_inverse=True), computed with a lexsort of the int32 columns
+    # (same order, same result; np.unique sorts the rows as structured items, ~5 times slower).
+    order = np.lexsort((bits[:, 2], bits[:, 1], bits[:, 0], corner_verts))
+    ordered_vert, ordered_bits = corner_verts[order], bits[order]
+    new = np.empty(len(order), dtype=bool)
+    new[:1] = True
+    new[1:] = ordered_vert[1:] != ordered_vert[:-1]
+    for axis in range(3):
+        new[1:] |= ordered_bits[1:, axis] != ordered_bits[:-1, axis]
+    inverse = np.empty(len(order), dtype=np.intp)
+    inverse[order] = np.cumsum(new) - 1
+    return ordered_vert[new], ordered_bits[new].view(np.float32), inverse
+
+
 def bake_points(mesh, matrix4, positions=None):
     """BakePoints of an (evaluated) mesh whose topology matches the mesh being written.
 
     Domain: POINT when every vertex has a single normal over all its corners (mesh.normals_domain
     is POINT: all faces smooth, no sharp edges, no custom normals; or e.g. a flat plane, whose
-    corners at a vertex all share the face normal), else CORNER. positions: the mesh's local
-    vertex positions if already read (read_positions).
+    corners at a vertex all share the face normal up to NORMAL_TOLERANCE), else CORNER.
+    positions: the mesh's local vertex positions if already read (read_positions).
     """
     positions = read_positions(mesh) if positions is None else positions
     if mesh.normals_domain == "POINT":
         return _vertex_points(matrix4, positions, read_vertex_normals(mesh))
-    corner_verts = read_corner_verts(mesh)
-    corner_normals = np.ascontiguousarray(read_corner_normals(mesh))
-    # Fast path (e.g. a flat plane): every vertex has corners and all its corners carry the same
-    # normal bits. Then the np.unique below would give exactly these normals in vertex order.
-    bits = corner_normals.view(np.int32)
-    none = np.int64(1) << 40  # outside the int32 range: "no corner"
-    first = np.full((len(positions), 3), none, dtype=np.int64)
-    first[corner_verts] = bits  # one of the vertex's corners' normal (whichever is written last)
-    if len(corner_verts) and (first[:, 0] != none).all() and np.array_equal(first[corner_verts], bits):
-        return _vertex_points(matrix4, positions, first.astype(np.int32).view(np.float32))
     # Corners that share a vertex and a normal (smooth regions) get the same transfer: bake once.
-    rows = np.column_stack([corner_verts, bits])
-    # np.unique(rows, axis=0, return_inverse=True), computed with a lexsort of the int32 columns
-    # (same order, same result; np.unique sorts the rows as structured items, ~5 times slower).
-    order = np.lexsort((rows[:, 3], rows[:, 2], rows[:, 1], rows[:, 0]))
-    ordered = rows[order]
-    new = np.empty(len(rows), dtype=bool)
-    new[:1] = True
-    np.any(ordered[1:] != ordered[:-1], axis=1, out=new[1:])
-    unique = ordered[new]
-    inverse = np.empty(len(rows), dtype=np.intp)
-    inverse[order] = np.cumsum(new) - 1
-    vert = unique[:, 0]
-    normals = np.ascontiguousarray(unique[:, 1:]).view(np.float32)
-    if np.array_equal(vert, np.arange(len(positions))):  # sorted by vertex: exactly one normal each
+    vert, normals, inverse = vertex_normal_pairs(
+        read_corner_verts(mesh), read_corner_normals(mesh), len(positions)
+    )
+    if np.array_equal(vert, np.arange(len(positions))):  # sorted: exactly one normal each
         return _vertex_points(matrix4, positions, normals)
     return BakePoints(
         "CORNER",
         transform_points(matrix4, positions[vert]),
         transform_normals(matrix4, normals),
-        inverse.reshape(-1).astype(np.int64),
+        inverse.astype(np.int64),
     )
 
 
