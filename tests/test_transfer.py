@@ -10,6 +10,7 @@ from prt_addon.core import analytic, raytrace, sh, transfer
 from prt_addon.core.analytic import _zonal_integral
 from prt_addon.core.directions import make_directions
 from prt_addon.core.rotation import axis_angle_matrix
+from conftest import random_directions
 
 ORDER = 4
 Y00 = 1.0 / np.sqrt(4.0 * np.pi)
@@ -321,6 +322,31 @@ def test_local_frame_rotation_and_mirror():
     mirror = rot @ np.diag([-1.0, 1.0, 1.0])  # Q = mirror, local direction u maps to world Q u
     local = transfer.to_local_frame(world, mirror * 3.0)
     np.testing.assert_allclose(local[0], analytic.clamped_cosine_coeffs(order, mirror.T @ normal), atol=1e-12)
+
+
+def test_local_frame_of_many_rows_in_float32():
+    """2,500 rows (blocks of 1024 and a partial one), float32 in and out: each row is the clamped
+    cosine about its own rotated normal, as for a single row."""
+    order = 5
+    normals = random_directions(2500, seed=4)
+    world = np.array([analytic.clamped_cosine_coeffs(order, n) for n in normals], np.float32)
+    rot = axis_angle_matrix((0.3, -1, 2), 1.1)
+    local = transfer.to_local_frame(world, rot * 0.5)
+    assert local.dtype == np.float32 and local.shape == world.shape
+    expected = np.array([analytic.clamped_cosine_coeffs(order, rot.T @ n) for n in normals])
+    np.testing.assert_allclose(local, expected, atol=1e-6)
+
+
+def test_error_relative_is_rms_error_over_rms_transfer_norm():
+    rng = np.random.default_rng(5)
+    coeffs = rng.normal(size=(3000, 16)).astype(np.float32)
+    error = rng.random(3000).astype(np.float32)
+    result = transfer.TransferResult(coeffs, error)
+    c64 = coeffs.astype(np.float64)
+    expected = np.sqrt(np.mean(error.astype(np.float64) ** 2)) / np.sqrt(np.mean((c64**2).sum(axis=1)))
+    assert result.error_relative() == pytest.approx(expected, rel=1e-12)
+    assert result.square_norm_sum() == pytest.approx((c64**2).sum(), rel=1e-12)
+    assert transfer.TransferResult(coeffs[:0], error[:0]).error_relative() == 0.0
 
 
 def _box(lo=(-1, -1, -1), hi=(1, 1, 1)):

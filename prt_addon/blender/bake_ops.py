@@ -436,7 +436,7 @@ class BakeJob:
         s, rep = self.settings, self.report
         if self._cancel:
             raise transfer.Cancelled()
-        items, errors, norms = [], [], []
+        items, errors, square_norm_sum = [], [], 0.0
         stats_all = transfer.TransferStats()
         backends = set()
         for plan in self.plans:
@@ -457,7 +457,7 @@ class BakeJob:
             values = local if plan.points.scatter is None else local[plan.points.scatter]
             result = comp.result()
             errors.append(result.error.astype(np.float64))
-            norms.append(np.sum(np.square(comp.coeffs, dtype=np.float64), axis=1))
+            square_norm_sum += result.square_norm_sum()
             record = {
                 "version": mesh_io.FORMAT_VERSION,
                 "order": s.order,
@@ -478,7 +478,6 @@ class BakeJob:
             items.append((plan.mesh, values, plan.points.domain, record))
         mesh_io.write_bakes(items)
         err = np.concatenate(errors)
-        norm = np.concatenate(norms)
         rep.ok = True
         rep.objects = [p.name for p in self.plans]
         rep.backend = backends.pop() if backends else "NONE"
@@ -492,7 +491,7 @@ class BakeJob:
         rep.skipped_shadows_off = stats_all.skipped_shadows_off
         rep.points = int(len(err))
         rep.error_estimate = float(np.sqrt(np.mean(err**2))) if len(err) else 0.0
-        rms_norm = float(np.sqrt(np.mean(norm))) if len(norm) else 0.0
+        rms_norm = float(np.sqrt(square_norm_sum / len(err))) if len(err) else 0.0
         rep.error_estimate_relative = rep.error_estimate / rms_norm if rms_norm > 0 else 0.0
         rep.message = rep.summary_lines()[0]
         return rep
