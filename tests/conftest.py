@@ -57,3 +57,18 @@ def process_cpu_per_wall_second(seconds=0.06):
     while time.perf_counter() - w0 < seconds:
         np.sin(data)
     return (time.process_time() - c0) / (time.perf_counter() - w0)
+
+
+def fake_event(event_type, value="PRESS"):
+    """A stand-in for bpy.types.Event, which Python cannot create: it has exactly the attributes
+    of a real Event (read from its RNA definition), so code that reads anything else fails here
+    as it does in Blender. An earlier stand-in had an invented `timer` attribute, which hid a
+    modal() that failed on the first timer event of every interactive bake."""
+    import types
+
+    import bpy
+
+    names = [n for n in bpy.types.Event.bl_rna.properties.keys() if n != "rna_type"]
+    event = types.SimpleNamespace(**{n: None for n in names})
+    event.type, event.value = event_type, value
+    return event

@@ -19,7 +19,7 @@ import types
 import numpy as np
 import pytest
 
-from conftest import bundled_hdri_path
+from conftest import bundled_hdri_path, fake_event
 
 pytestmark = pytest.mark.blender
 
@@ -352,7 +352,7 @@ class _StandIn:
         self.modal = lambda ctx, event: cls.modal(self, ctx, event)
 
 
-TIMER = types.SimpleNamespace(type="TIMER", timer=None)
+TIMER = fake_event("TIMER", "NOTHING")
 
 
 def _start_modal(bpy, scene_ns, monkeypatch):
@@ -419,7 +419,7 @@ def test_bake_while_another_bake_runs(bpy_module, scene, monkeypatch):
         refused(bpy, lambda: bake(bpy), r"a bake is already running: wait for it to finish, or press Esc")
         assert_unchanged(before, snapshot(bpy))
     finally:
-        assert op.modal(bpy.context, types.SimpleNamespace(type="ESC", timer=None)) == {"CANCELLED"}
+        assert op.modal(bpy.context, fake_event("ESC")) == {"CANCELLED"}
     assert not bake_ops._running
     assert ({"WARNING"}, "PRT: bake cancelled, nothing was changed") in op.reports
 

@@ -10,7 +10,7 @@ import pytest
 
 pytestmark = pytest.mark.blender
 
-from conftest import process_cpu_per_wall_second  # noqa: E402
+from conftest import fake_event, process_cpu_per_wall_second  # noqa: E402
 from prt_addon.core import analytic, raytrace, transfer  # noqa: E402
 
 
@@ -223,10 +223,10 @@ def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, 
     op._cleanup = lambda ctx: bake_ops.PRT_OT_bake_transfer._cleanup(op, ctx)
     op._fail = lambda ctx, exc: bake_ops.PRT_OT_bake_transfer._fail(op, ctx, exc)
     modal = bake_ops.PRT_OT_bake_transfer.modal
-    timer = types.SimpleNamespace(type="TIMER", timer=None)
+    timer = fake_event("TIMER", "NOTHING")
     assert modal(op, bpy.context, timer) == {"RUNNING_MODAL"}
     assert 0 < job.fraction < 1
-    assert modal(op, bpy.context, types.SimpleNamespace(type="ESC", timer=None)) == {"CANCELLED"}
+    assert modal(op, bpy.context, fake_event("ESC")) == {"CANCELLED"}
     assert job._pool._shutdown and all(not t.is_alive() for t in job._pool._threads)
     assert "cancelled" in bake_ops.last_report(empty_scene)["message"]
     assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before

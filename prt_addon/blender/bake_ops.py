@@ -716,7 +716,7 @@ class PRT_OT_bake_transfer(bpy.types.Operator):
             self._cleanup(context)
             self.report({"WARNING"}, "PRT: bake cancelled, nothing was changed")
             return {"CANCELLED"}
-        if event.type != "TIMER" or event.timer is not self._timer:
+        if event.type != "TIMER":  # (any timer: an Event does not say which timer fired)
             return {"PASS_THROUGH"} if event.type in _NAVIGATION else {"RUNNING_MODAL"}
         deadline = time.perf_counter() + TIME_SLICE
         try:
