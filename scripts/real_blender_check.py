@@ -1,0 +1,250 @@
+"""Run by a real Blender program with a window (scripts/real_blender_check.sh starts it):
+
+    blender --factory-startup --enable-event-simulate --python real_blender_check.py -- ZIP RESULT_JSON
+
+Installs the extension zip as a user would, checks which Embree the shared-buffer path binds to
+(and that it answers as embreex's own copy does), then drives the real modal bake through
+Blender's event loop: a bake to the end, one undo and one redo, then a long bake cancelled by a
+simulated Esc while this script's own timers sample its progress. Writes what it saw and a
+pass/fail verdict per check to RESULT_JSON.
+"""
+
+import json
+import os
+import sys
+import threading
+import time
+import traceback
+
+import bpy
+
+argv = sys.argv[sys.argv.index("--") + 1:]
+ZIP, RESULT = argv[0], argv[1]
+MODULE = "bl_ext.user_default.prt_lighting"
+result = {"blender": bpy.app.version_string, "python": sys.version.split()[0], "log": []}
+
+
+def log(*args):
+    line = " ".join(str(a) for a in args)
+    result["log"].append(line)
+    print("CHECK:", line, flush=True)
+
+
+def window_context():
+    window = bpy.context.window_manager.windows[0]
+    area = max((a for a in window.screen.areas if a.type == "VIEW_3D"), key=lambda a: a.width * a.height)
+    region = [r for r in area.regions if r.type == "WINDOW"][0]
+    return {"window": window, "area": area, "region": region, "screen": window.screen}
+
+
+def mod(name):
+    return sys.modules[f"{MODULE}.prt_addon.{name}"]
+
+
+def prt_bytes(mesh_name):
+    import numpy as np
+
+    mesh = bpy.data.meshes[mesh_name]
+    out = {}
+    for attr in mesh.attributes:
+        if attr.name.startswith("prt_t"):
+            buf = np.empty(len(attr.data) * 4, np.float32)
+            attr.data.foreach_get("color", buf)
+            out[attr.name] = buf.tobytes().hex()[:64] + f"..{len(buf)}:{hash(buf.tobytes())}"
+    record = mesh.get("prt_bake")
+    out["record"] = json.dumps(record.to_dict(), sort_keys=True) if record is not None else None
+    return out
+
+
+def bake_threads():
+    return sorted(t.name for t in threading.enumerate() if t.name.startswith("prt-bake"))
+
+
+def setup():
+    import numpy as np
+
+    result["install"] = list(bpy.ops.extensions.package_install_files(
+        filepath=ZIP, repo="user_default", enable_on_install=True))
+    raytrace = mod("core.raytrace")
+    buffers = mod("core.embree_buffers")
+    result["embree_available"] = bool(raytrace.EMBREE_AVAILABLE)
+    result["embree_import_error"] = str(getattr(raytrace, "EMBREE_IMPORT_ERROR", ""))
+    if raytrace.EMBREE_AVAILABLE:
+        import embreex
+
+        result["embreex_file"] = embreex.__file__
+        result["shared_buffers_available"] = bool(buffers.available())
+        with open("/proc/self/maps") as f:
+            result["embree_libraries_mapped"] = sorted({line.split()[-1] for line in f if "embree" in line})
+        # Shared against copied triangles on random rays through a random soup.
+        rng = np.random.default_rng(0)
+        v = rng.normal(size=(3000, 3)).astype(np.float32)
+        t = rng.integers(0, 3000, size=(5000, 3)).astype(np.int32)
+        o = rng.normal(size=(20000, 3)).astype(np.float32)
+        d = rng.normal(size=(20000, 3)).astype(np.float32)
+        shared = raytrace.EmbreeOccluder(v, t, shared=True)
+        copied = raytrace.EmbreeOccluder(v, t, shared=False)
+        result["geometry"] = [shared.geometry, copied.geometry]
+        a, b = shared.occluded(o, d), copied.occluded(o, d)
+        result["shared_vs_copied_equal"] = bool(np.array_equal(a, b))
+        import ctypes
+
+        lib = buffers._bind(buffers._library_path())
+        result["binding_origin"] = lib.origin
+
+        class DlInfo(ctypes.Structure):
+            _fields_ = [("fname", ctypes.c_char_p), ("fbase", ctypes.c_void_p),
+                        ("sname", ctypes.c_char_p), ("saddr", ctypes.c_void_p)]
+
+        info = DlInfo()
+        address = ctypes.cast(lib.rtcGetSceneDevice, ctypes.c_void_p).value
+        ctypes.CDLL(None).dladdr(ctypes.c_void_p(address), ctypes.byref(info))
+        result["binding_library"] = info.fname.decode()
+        result["occluded_fraction"] = float(a.mean())
+
+    for obj in list(bpy.data.objects):
+        bpy.data.objects.remove(obj)
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=60, y_subdivisions=60, size=8)
+    bpy.context.object.name = "Ground"
+    bpy.ops.mesh.primitive_monkey_add(location=(0, 0, 1))
+    monkey = bpy.context.object
+    monkey.modifiers.new("s", "SUBSURF").levels = 2
+    bpy.ops.object.modifier_apply(modifier="s")
+    monkey.data.shade_smooth()
+    bpy.ops.object.select_all(action="SELECT")
+    scene = bpy.context.scene
+    scene.prt_bake.order, scene.prt_bake.samples = 4, 256
+    with bpy.context.temp_override(**window_context()):
+        bpy.ops.ed.undo_push(message="before PRT bake")
+    result["before"] = prt_bytes("Suzanne")
+
+
+state = {"phase": "setup", "t": None, "fractions": []}
+
+
+def start_bake():
+    with bpy.context.temp_override(**window_context()):
+        return list(bpy.ops.prt.bake_transfer("INVOKE_DEFAULT"))
+
+
+def running_job():
+    ops = list(mod("blender.bake_ops")._running)
+    return ops[0]._bake if ops else None
+
+
+def tick():
+    try:
+        return step()
+    except Exception:  # noqa: BLE001
+        result["exception"] = traceback.format_exc()
+        finish()
+        return None
+
+
+PHASE_SECONDS = 120  # a phase that takes longer than this has hung: report it and quit
+
+
+def step():
+    phase = state["phase"]
+    if state["t"] is not None and time.perf_counter() - state["t"] > PHASE_SECONDS:
+        result["exception"] = f"timed out in phase '{phase}' after {PHASE_SECONDS} s"
+        finish()
+        return None
+    if phase == "setup":
+        setup()
+        state["phase"] = "bake"
+        state["invoke"] = start_bake()
+        result["invoke"] = state["invoke"]
+        result["threads_during_bake"] = bake_threads()
+        state["t"] = time.perf_counter()
+        return 0.02
+    bake_ops = mod("blender.bake_ops")
+    if phase == "bake":
+        job = running_job()
+        if job is not None:
+            state["fractions"].append(round(job.fraction, 3))
+            return 0.02
+        result["bake_seconds"] = time.perf_counter() - state["t"]
+        result["progress_samples"] = state["fractions"]
+        result["report"] = bake_ops.last_report(bpy.context.scene)
+        result["after_bake"] = prt_bytes("Suzanne")
+        result["threads_after_bake"] = bake_threads()
+        with bpy.context.temp_override(**window_context()):
+            result["undo"] = list(bpy.ops.ed.undo())
+        result["after_undo"] = prt_bytes("Suzanne")
+        with bpy.context.temp_override(**window_context()):
+            result["redo"] = list(bpy.ops.ed.redo())
+        result["after_redo"] = prt_bytes("Suzanne")
+        # A long bake, cancelled with Esc once it is under way.
+        bpy.context.scene.prt_bake.samples = 8192
+        state["phase"] = "cancel"
+        state["fractions"] = []
+        result["invoke_long"] = start_bake()
+        state["t"] = time.perf_counter()
+        return 0.02
+    if phase == "cancel":
+        job = running_job()
+        if job is not None and not state.get("esc_sent"):
+            state["fractions"].append(round(job.fraction, 3))
+            state["ticks"] = state.get("ticks", 0) + 1
+            if job.fraction > 0.35:
+                window = bpy.context.window_manager.windows[0]
+                window.event_simulate(type="ESC", value="PRESS")
+                window.event_simulate(type="ESC", value="RELEASE")
+                state["esc_sent"] = time.perf_counter()
+                result["fraction_at_esc"] = job.fraction
+                result["script_timer_ticks_during_long_bake"] = state["ticks"]
+                result["progress_samples_long_bake"] = state["fractions"]
+            return 0.02
+        if job is not None:
+            if time.perf_counter() - state["esc_sent"] > 10:
+                result["esc_ignored"] = True
+                finish()
+                return None
+            return 0.02
+        time.sleep(0.2)
+        result["cancel_seconds_after_esc"] = time.perf_counter() - state["esc_sent"]
+        result["cancel_report"] = bake_ops.last_report(bpy.context.scene)
+        result["after_cancel"] = prt_bytes("Suzanne")
+        result["threads_after_cancel"] = bake_threads()
+        finish()
+        return None
+    return None
+
+
+def verdict():
+    r = result
+    bake_attrs = {k for k in r.get("after_bake", {}) if k != "record"}
+    checks = {
+        "extension installed": r.get("install") == ["FINISHED"],
+        "embreex imports": bool(r.get("embree_available")),
+        "shared buffers used, same answers as embreex's copy": r.get("geometry") == ["SHARED", "COPIED"]
+        and bool(r.get("shared_vs_copied_equal")),
+        "invoke() starts a modal bake": r.get("invoke") == ["RUNNING_MODAL"],
+        "the modal bake finishes with Embree": bool(r.get("report", {}).get("ok"))
+        and r.get("report", {}).get("backend") == "EMBREE" and len(bake_attrs) == 4,
+        "no worker thread left after the bake": r.get("threads_after_bake") == [],
+        "one undo removes the whole bake": r.get("after_undo") == r.get("before"),
+        "redo brings it back unchanged": r.get("after_redo") == r.get("after_bake"),
+        "progress advances between timer events (the UI runs)":
+            len(r.get("progress_samples_long_bake", [])) >= 3
+            and all(a < b for a, b in zip(r["progress_samples_long_bake"], r["progress_samples_long_bake"][1:])),
+        "Esc cancels within 1 s": bool(r.get("cancel_report", {}).get("cancelled"))
+        and r.get("cancel_seconds_after_esc", 99) < 1.0,
+        "a cancelled bake leaves the attributes as they were": r.get("after_cancel") == r.get("after_bake"),
+        "no worker thread left after Esc": r.get("threads_after_cancel") == [],
+        "no exception": "exception" not in r,
+    }
+    r["checks"] = checks
+    r["passed"] = all(checks.values())
+
+
+def finish():
+    verdict()
+    with open(RESULT, "w") as f:
+        json.dump(result, f, indent=1)
+    log("done")
+    bpy.ops.wm.quit_blender()
+
+
+bpy.app.timers.register(tick, first_interval=1.0)
