@@ -119,7 +119,7 @@ def setup():
     result["before"] = prt_bytes("Suzanne")
 
 
-state = {"phase": "setup", "t": None, "fractions": []}
+state = {"phase": "splash", "t": None, "fractions": []}
 
 
 def start_bake():
@@ -150,6 +150,12 @@ def step():
         result["exception"] = f"timed out in phase '{phase}' after {PHASE_SECONDS} s"
         finish()
         return None
+    if phase == "splash":
+        window = bpy.context.window_manager.windows[0]
+        window.event_simulate(type="ESC", value="PRESS")  # closes the splash screen
+        window.event_simulate(type="ESC", value="RELEASE")
+        state["phase"] = "setup"
+        return 0.5
     if phase == "setup":
         setup()
         state["phase"] = "bake"
@@ -175,6 +181,35 @@ def step():
         with bpy.context.temp_override(**window_context()):
             result["redo"] = list(bpy.ops.ed.redo())
         result["after_redo"] = prt_bytes("Suzanne")
+        # The live display in this window: project the world, show the display, turn the light.
+        world = bpy.data.worlds.new("PRT World")
+        if world.node_tree is None:
+            world.use_nodes = True
+        bpy.context.scene.world = world
+        env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+        folder = bpy.utils.system_resource("DATAFILES", path="studiolights/world")
+        env.image = bpy.data.images.load(os.path.join(folder, "forest.exr"))
+        world.node_tree.links.new(env.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
+        with bpy.context.temp_override(**window_context()):
+            result["project"] = list(bpy.ops.prt.project_world())
+        bpy.context.scene.prt.show_display = True
+        window_context()["area"].tag_redraw()
+        result["display_on_at"] = time.time()
+        state["phase"] = "display"
+        state["t"] = time.perf_counter()
+        return 1.5
+    if phase == "display":
+        display = mod("blender.display")
+        result["display_handler"] = display.draw_handle() is not None
+        result["display_meshes_drawn"] = len(display._mesh_cache)
+        with bpy.context.temp_override(**window_context()):
+            result["rotate"] = list(bpy.ops.prt.set_light_rotation(rotation=(0.0, 0.0, 2.0)))
+        window_context()["area"].tag_redraw()
+        result["rotated_at"] = time.time()
+        state["phase"] = "long"
+        state["t"] = time.perf_counter()
+        return 1.5
+    if phase == "long":
         # A long bake, cancelled with Esc once it is under way.
         bpy.context.scene.prt_bake.samples = 8192
         state["phase"] = "cancel"
@@ -226,6 +261,9 @@ def verdict():
         "no worker thread left after the bake": r.get("threads_after_bake") == [],
         "one undo removes the whole bake": r.get("after_undo") == r.get("before"),
         "redo brings it back unchanged": r.get("after_redo") == r.get("after_bake"),
+        "the world projects and the display draws both baked objects":
+            r.get("project") == ["FINISHED"] and bool(r.get("display_handler"))
+            and r.get("display_meshes_drawn") == 2 and r.get("rotate") == ["FINISHED"],
         "progress advances between timer events (the UI runs)":
             len(r.get("progress_samples_long_bake", [])) >= 3
             and all(a < b for a, b in zip(r["progress_samples_long_bake"], r["progress_samples_long_bake"][1:])),

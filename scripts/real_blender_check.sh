@@ -46,7 +46,7 @@ cp "$work/dist/$zip_name" "$root/scripts/real_blender_check.py" "$chroot_dir$ins
 
 # The X screen every 0.3 s while Blender runs (the status bar shows the bake's progress text).
 chroot "$chroot_dir" bash -c "cd $inside && (for i in \$(seq -w 1 150); do \
-    import -display :99 -window root shots/screen_\$i.png 2>/dev/null; sleep 0.3; \
+    import -display :99 -window root shots/screen_\$(date +%s.%N).png 2>/dev/null; sleep 0.3; \
     [ \$i -lt 20 ] || pgrep -x blender >/dev/null || break; done &) && \
   timeout 600 xvfb-run -n 99 -s '-screen 0 1600x1000x24 -ac' blender --factory-startup \
     --enable-event-simulate --python real_blender_check.py -- $inside/$zip_name $inside/result.json" \
@@ -58,13 +58,23 @@ if [ ! -f "$chroot_dir$inside/result.json" ]; then
   exit 1
 fi
 cp "$chroot_dir$inside/result.json" "$work/result.json"
-python3 - "$work/result.json" <<'EOF'
-import json, sys
-r = json.load(open(sys.argv[1]))
+python3 - "$work" <<'EOF'
+import glob, json, os, shutil, sys
+work = sys.argv[1]
+r = json.load(open(os.path.join(work, "result.json")))
+log = open(os.path.join(work, "blender.log"), errors="replace").read()
+r["checks"]["no Python traceback in Blender's output"] = "Traceback" not in log
+# The screen 1 s after the display was turned on and after the lighting was turned.
+shots = sorted((float(os.path.basename(p)[7:-4]), p) for p in glob.glob(os.path.join(work, "shots", "screen_*.png")))
+for key, name in (("display_on_at", "display_on.png"), ("rotated_at", "display_rotated.png")):
+    later = [p for t, p in shots if key in r and t >= r[key] + 1.0]
+    if later:
+        shutil.copy(later[0], os.path.join(work, name))
 print(f"Blender {r['blender']} (Python {r['python']}); Embree bound from {r.get('binding_library')}")
 for name, ok in r["checks"].items():
     print(("PASS  " if ok else "FAIL  ") + name)
 if "exception" in r:
     print(r["exception"])
-sys.exit(0 if r["passed"] else 1)
+print(f"screenshots: {work}/display_on.png, {work}/display_rotated.png, {work}/shots/")
+sys.exit(0 if all(r["checks"].values()) else 1)
 EOF
