@@ -193,7 +193,28 @@ def step():
         with bpy.context.temp_override(**window_context()):
             result["project"] = list(bpy.ops.prt.project_world())
         bpy.context.scene.prt.show_display = True
-        window_context()["area"].tag_redraw()
+        area = window_context()["area"]
+        area.spaces.active.show_region_ui = True  # the sidebar, on its "PRT" tab: draws our panels
+        area.tag_redraw()
+        state["phase"] = "sidebar"
+        state["t"] = time.perf_counter()
+        state["tab_tries"] = 0
+        return 0.3
+    if phase == "sidebar":
+        # active_panel_category is read-only in 4.3: click down the tab strip at the sidebar's
+        # right edge, 8 px at a time from the top, until the PRT tab is the active one.
+        area = window_context()["area"]
+        sidebar = [r for r in area.regions if r.type == "UI"][0]
+        if sidebar.active_panel_category != "PRT" and state["tab_tries"] < 60:
+            window = bpy.context.window_manager.windows[0]
+            x = sidebar.x + sidebar.width - 8
+            y = sidebar.y + sidebar.height - 10 - 8 * state["tab_tries"]
+            window.event_simulate(type="MOUSEMOVE", value="NOTHING", x=x, y=y)
+            window.event_simulate(type="LEFTMOUSE", value="PRESS", x=x, y=y)
+            window.event_simulate(type="LEFTMOUSE", value="RELEASE", x=x, y=y)
+            state["tab_tries"] += 1
+            return 0.3  # (simulated events are handled later: wait before looking again)
+        result["sidebar_tab"] = sidebar.active_panel_category
         result["display_on_at"] = time.time()
         state["phase"] = "display"
         state["t"] = time.perf_counter()
@@ -264,6 +285,7 @@ def verdict():
         "the world projects and the display draws both baked objects":
             r.get("project") == ["FINISHED"] and bool(r.get("display_handler"))
             and r.get("display_meshes_drawn") == 2 and r.get("rotate") == ["FINISHED"],
+        "the sidebar's PRT tab draws": r.get("sidebar_tab") == "PRT",
         "progress advances between timer events (the UI runs)":
             len(r.get("progress_samples_long_bake", [])) >= 3
             and all(a < b for a, b in zip(r["progress_samples_long_bake"], r["progress_samples_long_bake"][1:])),
