@@ -1,6 +1,7 @@
 """Shared fixtures. Core tests need only numpy; Blender-layer tests use the `bpy` module."""
 
 import os
+import threading
 import time
 
 import numpy as np
@@ -49,14 +50,33 @@ def random_directions(count, seed):
     return d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
-def process_cpu_per_wall_second(seconds=0.06):
-    """CPU seconds of this whole process per wall second while this thread runs small numpy
-    operations: about 1 with one busy thread, about 2 when another thread spins meanwhile."""
-    data = np.random.default_rng(0).random(50_000)
-    w0, c0 = time.perf_counter(), time.process_time()
-    while time.perf_counter() - w0 < seconds:
-        np.sin(data)
-    return (time.process_time() - c0) / (time.perf_counter() - w0)
+def other_threads_cpu_ticks():
+    """CPU clock ticks (user + system) used so far by this process's threads other than the
+    calling one, from /proc/self/task (Linux)."""
+    me = threading.get_native_id()
+    total = 0
+    for task in os.listdir("/proc/self/task"):
+        if int(task) == me:
+            continue
+        try:
+            with open(f"/proc/self/task/{task}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+        except OSError:  # the thread ended meanwhile
+            continue
+        total += int(fields[11]) + int(fields[12])  # utime, stime (fields 14 and 15 of stat)
+    return total
+
+
+def ticks_of_other_threads_after(call, window=0.15):
+    """Clock ticks (1/100 s) that other threads of this process use in the `window` seconds
+    after call() returns, while this thread sleeps: about 100 * window when a BLAS worker spins,
+    0 when nothing else runs. Counted per thread, so other processes loading the machine do not
+    blur it as a wall-clock measure would."""
+    time.sleep(0.3)  # let any worker from earlier calls go to sleep
+    call()
+    before = other_threads_cpu_ticks()
+    time.sleep(window)
+    return other_threads_cpu_ticks() - before
 
 
 def fake_event(event_type, value="PRESS"):

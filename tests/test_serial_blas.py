@@ -4,7 +4,7 @@ import time
 
 import numpy as np
 import pytest
-from conftest import process_cpu_per_wall_second
+from conftest import ticks_of_other_threads_after
 
 from prt_addon.core.serial_blas import matmul_serial
 
@@ -24,16 +24,23 @@ def test_matmul_serial_is_the_matrix_product():
 
 
 def test_matmul_serial_leaves_no_blas_thread_spinning():
-    """OpenBLAS threads a (40000 x 3) @ (3 x 3) product and its worker keeps a core busy for
-    tens of milliseconds after the call; the same product through matmul_serial does not."""
-    a = np.random.default_rng(1).random((40_000, 3))
+    """OpenBLAS threads a (40000 x 3) @ (3 x 3) product, a (1 x 3) @ (3 x 4096) one (gemv) and
+    an (8 x 512) @ (512 x 25) one, and its worker keeps a core busy for tens of milliseconds
+    after the call; the same products through matmul_serial leave no other thread working."""
+    rng = np.random.default_rng(1)
+    a = rng.random((40_000, 3))
     m = np.eye(3)
-    time.sleep(0.3)  # let any worker from earlier tests go to sleep
-    a @ m
-    threaded = process_cpu_per_wall_second()
-    if threaded < 1.5:
-        pytest.skip(f"this numpy's BLAS does not spin after a threaded product ({threaded:.2f})")
-    time.sleep(0.3)
-    matmul_serial(a, m)
-    matmul_serial(a, m[0])
-    assert process_cpu_per_wall_second() < 1.3
+    threaded = ticks_of_other_threads_after(lambda: a @ m)
+    if threaded < 3:
+        pytest.skip(f"this numpy's BLAS does not spin after a threaded product ({threaded} ticks)")
+    wide = rng.random((3, 4096))
+    tall = rng.random((512, 25))
+    cases = {
+        "(40000 x 3) @ (3 x 3)": lambda: matmul_serial(a, m),
+        "(40000 x 3) @ (3,)": lambda: matmul_serial(a, m[0]),
+        "(22 x 3) @ (3 x 4096), blocks of 21 rows and 1": lambda: matmul_serial(a[:22], wide),
+        "(21 x 512) @ (512 x 25), accumulated": lambda: matmul_serial(
+            rng.random((21, 512)), tall, np.zeros((21, 25)), accumulate=True),
+    }
+    ticks = {name: ticks_of_other_threads_after(call) for name, call in cases.items()}
+    assert all(t <= 1 for t in ticks.values()), ticks

@@ -146,11 +146,12 @@ def transform_points(matrix4, points):
 def transform_normals(matrix4, normals):
     """Normals under the inverse transpose of the linear part, renormalised (0 stays 0)."""
     linear = np.asarray(matrix4, dtype=np.float64)[:3, :3]
-    # inv(linear)^T = cofactor matrix / det (rows: cross products of the rows). Not
-    # np.linalg.inv, whose LAPACK call leaves an OpenBLAS thread spinning (core.serial_blas).
+    # inv(linear)^T = cofactor matrix / det (rows: cross products of the rows); the normals are
+    # renormalised, so only det's sign matters. Not np.linalg.inv, whose LAPACK call leaves an
+    # OpenBLAS thread spinning (core.serial_blas).
     cofactor = np.cross(linear[[1, 2, 0]], linear[[2, 0, 1]])
     det = float(np.dot(linear[0], cofactor[0]))
-    normal_matrix = cofactor / det if det != 0.0 and np.isfinite(det) else linear
+    normal_matrix = cofactor * np.sign(det) if det != 0.0 and np.isfinite(det) else linear
     n = matmul_serial(np.asarray(normals, dtype=np.float64), normal_matrix.T)
     length = np.sqrt(np.einsum("ij,ij->i", n, n))[:, None]
     return np.divide(n, length, out=np.zeros_like(n), where=length > 1e-30)

@@ -11,26 +11,37 @@ matmul_serial, split by rows below that size.
 
 import numpy as np
 
-BLAS_SERIAL_MNK = 1 << 18
+BLAS_SERIAL_MNK = 1 << 18  # gemm: threaded above m * n * k = 2^18
+BLAS_SERIAL_GEMV = 9216  # gemv: threaded from m * n = 9216
 
 
 def matmul_serial(a, b, out=None, accumulate=False):
-    """a @ b (or out += a @ b) for 2-D a and 2-D or 1-D b, in row blocks small enough for a
-    serial BLAS call."""
+    """a @ b (or out += a @ b) for 2-D a and 2-D or 1-D b, in blocks small enough for a serial
+    BLAS call. Returns out (for a 1-D b, a 1-D view of it)."""
     a = np.asarray(a)
     b = np.asarray(b)
+    if a.ndim != 2 or b.ndim not in (1, 2):
+        raise ValueError(f"matmul_serial needs a 2-D a and a 1-D or 2-D b, got {a.shape} and {b.shape}")
     vector = b.ndim == 1
     b2 = b[:, None] if vector else b
-    rows = max(1, BLAS_SERIAL_MNK // max(1, a.shape[1] * b2.shape[1]))
-    if vector:  # gemv: threaded from m * n = 9216
-        rows = max(1, min(rows, 9215 // max(1, a.shape[1])))
+    k, n = b2.shape
+    rows = max(1, BLAS_SERIAL_MNK // max(1, k * n))
+    if vector:
+        rows = max(1, min(rows, (BLAS_SERIAL_GEMV - 1) // max(1, k)))
     if out is None:
-        out = np.empty((a.shape[0], b2.shape[1]), dtype=np.result_type(a, b))
+        out = np.empty((a.shape[0], n), dtype=np.result_type(a, b))
         accumulate = False
     out2 = out[:, None] if out.ndim == 1 else out
     for r0 in range(0, a.shape[0], rows):
         r1 = min(a.shape[0], r0 + rows)
-        if accumulate:
+        if r1 - r0 == 1 and k * n >= BLAS_SERIAL_GEMV:
+            # numpy computes a one-row product with gemv, threaded at this size: einsum instead.
+            product = np.einsum("ij,jk->ik", a[r0:r1], b2)
+            if accumulate:
+                out2[r0:r1] += product
+            else:
+                out2[r0:r1] = product
+        elif accumulate:
             out2[r0:r1] += a[r0:r1] @ b2
         else:
             np.matmul(a[r0:r1], b2, out=out2[r0:r1])
