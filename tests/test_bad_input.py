@@ -352,18 +352,20 @@ class _StandIn:
         self.modal = lambda ctx, event: cls.modal(self, ctx, event)
 
 
-TIMER = fake_event("TIMER", "NOTHING")
+def _timer_event():
+    return fake_event("TIMER", "NOTHING")  # (made when used: conftest's fake_event imports bpy)
 
 
 def _start_modal(bpy, scene_ns, monkeypatch):
     from prt_addon.blender import bake_ops
 
     monkeypatch.setattr(bake_ops, "TIME_SLICE", 0.0)
+    monkeypatch.setattr(bake_ops, "TIMER_GAP", 0.0)
     job = bake_ops.BakeJob([scene_ns.sphere, scene_ns.ground],
                            bake_ops.BakeSettings(order=4, samples=256, chunk_rays=2048))
     op = _StandIn(bake_ops, job)
     bake_ops._running.add(op)  # what invoke() does
-    assert op.modal(bpy.context, TIMER) == {"RUNNING_MODAL"}
+    assert op.modal(bpy.context, _timer_event()) == {"RUNNING_MODAL"}
     assert 0 < job.fraction < 1
     return bake_ops, op
 
@@ -439,7 +441,7 @@ def test_topology_change_during_modal_bake(bpy_module, scene, monkeypatch):
     before = snapshot(bpy)
     result = {"RUNNING_MODAL"}
     while result == {"RUNNING_MODAL"}:
-        result = op.modal(bpy.context, TIMER)
+        result = op.modal(bpy.context, _timer_event())
     assert result == {"CANCELLED"}
     assert any("ERROR" in kind and "topology of 'Sphere' changed during the bake: bake again" in msg
                for kind, msg in op.reports), op.reports
@@ -468,7 +470,7 @@ def test_unregister_in_the_middle_of_a_modal_bake(bpy_module, scene, monkeypatch
         assert pending_job._cancel
         assert pending_job._pool._shutdown, "the pending bake's worker threads were not stopped"
         # If Blender still delivers an event to the dead operator, it writes nothing.
-        assert op.modal(bpy.context, TIMER) == {"CANCELLED"}
+        assert op.modal(bpy.context, _timer_event()) == {"CANCELLED"}
     finally:
         prt_addon.register()
     after = snapshot(bpy)

@@ -207,6 +207,7 @@ class _FakeOperator:
 def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, bpy_module, bake_ops,
                                                                   monkeypatch):
     monkeypatch.setattr(bake_ops, "TIME_SLICE", 0.0)  # one chunk per timer event
+    monkeypatch.setattr(bake_ops, "TIMER_GAP", 0.0)  # (tested on its own below)
     bpy = bpy_module
     ground, monkey = _monkey_on_ground(bpy)
     from prt_addon import api
@@ -237,6 +238,33 @@ def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, 
     while result == {"RUNNING_MODAL"}:
         result = modal(op, bpy.context, timer)
     assert result == {"FINISHED"} and monkey.data["prt_bake"]["order"] == 2
+
+
+def test_timer_events_right_after_a_slice_do_no_work(empty_scene, bpy_module, bake_ops, monkeypatch):
+    """Blender's events do not say which timer fired, so any TIMER event can run a slice; one that
+    comes within TIMER_GAP of the end of the previous slice (another add-on's timer) does none,
+    so the UI gets its turn between slices."""
+    monkeypatch.setattr(bake_ops, "TIME_SLICE", 0.0)
+    bpy = bpy_module
+    ground, monkey = _monkey_on_ground(bpy)
+    job = bake_ops.BakeJob([monkey, ground], bake_ops.BakeSettings(order=4, samples=256, chunk_rays=4096))
+    op = _FakeOperator()
+    op._bake, op._steps, op._timer, op.reports = job, job.steps(), None, []
+    op.report = lambda kind, msg: op.reports.append((kind, msg))
+    op._cleanup = lambda ctx: bake_ops.PRT_OT_bake_transfer._cleanup(op, ctx)
+    modal = bake_ops.PRT_OT_bake_transfer.modal
+    try:
+        assert modal(op, bpy.context, fake_event("TIMER", "NOTHING")) == {"RUNNING_MODAL"}
+        after_one = job.fraction
+        assert 0 < after_one < 1
+        assert modal(op, bpy.context, fake_event("TIMER", "NOTHING")) == {"RUNNING_MODAL"}
+        assert job.fraction == after_one  # right after the slice: no work
+        time.sleep(1.5 * bake_ops.TIMER_GAP)
+        assert modal(op, bpy.context, fake_event("TIMER", "NOTHING")) == {"RUNNING_MODAL"}
+        assert job.fraction > after_one
+    finally:
+        assert modal(op, bpy.context, fake_event("ESC")) == {"CANCELLED"}
+    assert job._pool._shutdown
 
 
 def test_scene_bvh_is_built_only_when_a_ray_can_be_traced(empty_scene, bpy_module, bake_ops):

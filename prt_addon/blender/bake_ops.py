@@ -618,6 +618,9 @@ def _report_to_operator(op, report):
 
 
 TIME_SLICE = 0.1  # seconds of work per timer event of the modal bake
+# Timer events closer than this to the end of the previous slice do no work: an Event does not
+# say which timer fired, so other add-ons' timers would otherwise add slices and stall the UI.
+TIMER_GAP = 0.015
 _running = set()  # operators with a live timer, removed in unregister_extra()
 _NAVIGATION = {
     "MIDDLEMOUSE", "WHEELUPMOUSE", "WHEELDOWNMOUSE", "MOUSEMOVE", "INBETWEEN_MOUSEMOVE",
@@ -716,8 +719,10 @@ class PRT_OT_bake_transfer(bpy.types.Operator):
             self._cleanup(context)
             self.report({"WARNING"}, "PRT: bake cancelled, nothing was changed")
             return {"CANCELLED"}
-        if event.type != "TIMER":  # (any timer: an Event does not say which timer fired)
+        if event.type != "TIMER":
             return {"PASS_THROUGH"} if event.type in _NAVIGATION else {"RUNNING_MODAL"}
+        if time.perf_counter() - getattr(self, "_slice_end", float("-inf")) < TIMER_GAP:
+            return {"RUNNING_MODAL"}  # (another timer right after our slice: let the UI run)
         deadline = time.perf_counter() + TIME_SLICE
         try:
             while True:  # at least one chunk per timer event
@@ -738,6 +743,7 @@ class PRT_OT_bake_transfer(bpy.types.Operator):
         context.window_manager.progress_update(100.0 * fraction)
         if context.workspace is not None:
             context.workspace.status_text_set(f"PRT: {text} (Esc to cancel)")
+        self._slice_end = time.perf_counter()
         return {"RUNNING_MODAL"}
 
     def _fail(self, context, exc):
