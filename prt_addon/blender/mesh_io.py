@@ -79,9 +79,10 @@ def read_face_starts(mesh):
 def read_triangles(mesh, positions=None):
     """(T, 3) int32 vertex indices of the mesh's loop triangles, in Blender's order.
 
-    Meshes of triangles and quads are triangulated here as Blender does it, ~8 times faster than
-    reading mesh.loop_triangles (whose foreach_get goes element by element); meshes with n-gons
-    read loop_triangles. positions: the mesh's vertex positions if already read.
+    Meshes of triangles and quads are triangulated here as Blender does it, about twice as fast
+    as reading mesh.loop_triangles, whose foreach_get goes element by element (5.7 -> 2.9 ms for
+    a 31k-quad mesh); meshes with n-gons read loop_triangles. positions: the mesh's vertex
+    positions if already read.
     """
     corner_verts = read_corner_verts(mesh)
     starts = read_face_starts(mesh)
@@ -101,7 +102,9 @@ def triangulate_quads(corner_verts, starts, sizes, positions):
     (blenkernel mesh_tessellate.cc): a triangle is (0, 1, 2); a quad is (0, 1, 2), (0, 2, 3),
     or (0, 1, 3), (1, 2, 3) when the first split folds over (blenlib's
     is_quad_flip_v3_first_third_fast: (v2 - v1) x (v3 - v1) . (v4 - v1) x (v3 - v1) > 0,
-    computed in float32 in the same order)."""
+    computed in float32 in the same order). A build of Blender that fuses multiply-adds (possible
+    on arm64) can decide a quad whose test is within rounding of 0 the other way: either split
+    covers that nearly flat quad."""
     per_face = sizes - 2
     first = np.cumsum(per_face) - per_face  # each face's first triangle
     corners = np.empty((int(per_face.sum()), 3), dtype=np.int32)
