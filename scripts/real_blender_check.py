@@ -41,7 +41,12 @@ def mod(name):
     return sys.modules[f"{MODULE}.prt_addon.{name}"]
 
 
-def prt_bytes(mesh_name):
+def prt_bytes(mesh_names=("Suzanne", "Ground")):
+    """Every prt_* attribute (a digest of its bytes) and the bake record of each mesh."""
+    return {name: mesh_prt_bytes(name) for name in mesh_names}
+
+
+def mesh_prt_bytes(mesh_name):
     import numpy as np
 
     mesh = bpy.data.meshes[mesh_name]
@@ -105,7 +110,7 @@ def setup():
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=60, y_subdivisions=60, size=8)
-    bpy.context.object.name = "Ground"
+    bpy.context.object.name = bpy.context.object.data.name = "Ground"
     bpy.ops.mesh.primitive_monkey_add(location=(0, 0, 1))
     monkey = bpy.context.object
     monkey.modifiers.new("s", "SUBSURF").levels = 2
@@ -116,7 +121,7 @@ def setup():
     scene.prt_bake.order, scene.prt_bake.samples = 4, 256
     with bpy.context.temp_override(**window_context()):
         bpy.ops.ed.undo_push(message="before PRT bake")
-    result["before"] = prt_bytes("Suzanne")
+    result["before"] = prt_bytes()
 
 
 state = {"phase": "splash", "t": None, "fractions": []}
@@ -173,14 +178,14 @@ def step():
         result["bake_seconds"] = time.perf_counter() - state["t"]
         result["progress_samples"] = state["fractions"]
         result["report"] = bake_ops.last_report(bpy.context.scene)
-        result["after_bake"] = prt_bytes("Suzanne")
+        result["after_bake"] = prt_bytes()
         result["threads_after_bake"] = bake_threads()
         with bpy.context.temp_override(**window_context()):
             result["undo"] = list(bpy.ops.ed.undo())
-        result["after_undo"] = prt_bytes("Suzanne")
+        result["after_undo"] = prt_bytes()
         with bpy.context.temp_override(**window_context()):
             result["redo"] = list(bpy.ops.ed.redo())
-        result["after_redo"] = prt_bytes("Suzanne")
+        result["after_redo"] = prt_bytes()
         # The live display in this window: project the world, show the display, turn the light.
         world = bpy.data.worlds.new("PRT World")
         if world.node_tree is None:
@@ -261,7 +266,7 @@ def step():
         time.sleep(0.2)
         result["cancel_seconds_after_esc"] = time.perf_counter() - state["esc_sent"]
         result["cancel_report"] = bake_ops.last_report(bpy.context.scene)
-        result["after_cancel"] = prt_bytes("Suzanne")
+        result["after_cancel"] = prt_bytes()
         result["threads_after_cancel"] = bake_threads()
         finish()
         return None
@@ -270,7 +275,7 @@ def step():
 
 def verdict():
     r = result
-    bake_attrs = {k for k in r.get("after_bake", {}) if k != "record"}
+    bake_attrs = {k for mesh in r.get("after_bake", {}).values() for k in mesh if k != "record"}
     checks = {
         "extension installed": r.get("install") == ["FINISHED"],
         "embreex imports": bool(r.get("embree_available")),
@@ -278,7 +283,8 @@ def verdict():
         and bool(r.get("shared_vs_copied_equal")),
         "invoke() starts a modal bake": r.get("invoke") == ["RUNNING_MODAL"],
         "the modal bake finishes with Embree": bool(r.get("report", {}).get("ok"))
-        and r.get("report", {}).get("backend") == "EMBREE" and len(bake_attrs) == 4,
+        and r.get("report", {}).get("backend") == "EMBREE" and len(bake_attrs) == 4
+        and all(mesh["record"] is not None for mesh in r.get("after_bake", {}).values()),
         "no worker thread left after the bake": r.get("threads_after_bake") == [],
         "one undo removes the whole bake": r.get("after_undo") == r.get("before"),
         "redo brings it back unchanged": r.get("after_redo") == r.get("after_bake"),

@@ -31,7 +31,11 @@ cleanup() {
 trap cleanup EXIT
 for fs in proc dev sys; do
   if ! mountpoint -q "$chroot_dir/$fs"; then
-    if [ "$fs" = proc ]; then mount -t proc proc "$chroot_dir/proc"; else mount --rbind "/$fs" "$chroot_dir/$fs"; fi
+    if [ "$fs" = proc ]; then
+      mount -t proc proc "$chroot_dir/proc"
+    else  # rslave: unmounting the copy below must never propagate to the host's own mounts
+      mount --rbind "/$fs" "$chroot_dir/$fs" && mount --make-rslave "$chroot_dir/$fs"
+    fi
     mounted+=("$chroot_dir/$fs")
   fi
 done
