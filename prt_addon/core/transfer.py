@@ -476,24 +476,23 @@ def to_local_frame(coeffs, linear):
     scale) the odd bands are negated too, because t_world(-R u) is the point reflection of
     t_world rotated by R^-1, and a point reflection multiplies band l by (-1)^l.
     """
-    from .rotation import rotation_matrix
-    from .sh import band_of_index, order_of
+    from .rotation import band_matrices
+    from .sh import order_of
 
     coeffs = np.asarray(coeffs)
     order = order_of(coeffs.shape[1])
     r, mirrored = frame_rotation(linear)
-    m = rotation_matrix(r.T, order)
-    if mirrored:
-        m = m * np.where(band_of_index(order) % 2 == 1, -1.0, 1.0)[None, :]
+    # rotation_matrix(R^-1) is block-diagonal by band: one (2l+1)^2 product per band (order^4 ->
+    # ~order^3 / 3 multiplications per row); mirrored, band l is also scaled by (-1)^l.
+    blocks = band_matrices(r.T, order)
+    band_t = [np.ascontiguousarray(block.T * (-1.0 if mirrored and l % 2 else 1.0))
+              for l, block in enumerate(blocks)]
+    bands = [slice(l * l, (l + 1) * (l + 1)) for l in range(order)]
     out = np.empty(coeffs.shape, dtype=coeffs.dtype)
-    # m is block-diagonal by band: one (2l+1)^2 product per band (order^4 -> ~order^3 / 3
-    # multiplications per row), in float64, in blocks of 1024 rows through two reused buffers
-    # (fresh multi-megabyte temporaries cost more in page faults than the product) and serial
-    # BLAS calls.
+    # float64 maths in blocks of 1024 rows through two reused buffers (fresh multi-megabyte
+    # temporaries cost more in page faults than the product), with serial BLAS calls.
     rows = 1024
     block, product = np.empty((rows, coeffs.shape[1])), np.empty((rows, coeffs.shape[1]))
-    bands = [slice(l * l, (l + 1) * (l + 1)) for l in range(order)]
-    band_t = [np.ascontiguousarray(m[b, b].T) for b in bands]
     for r0 in range(0, len(coeffs), rows):
         n = min(rows, len(coeffs) - r0)
         block[:n] = coeffs[r0 : r0 + n]
