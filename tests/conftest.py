@@ -92,3 +92,17 @@ def fake_event(event_type, value="PRESS"):
     event = types.SimpleNamespace(**{n: None for n in names})
     event.type, event.value = event_type, value
     return event
+
+
+class ModalStandIn:
+    """Stands in for a PRT_OT_bake_transfer instance driven through modal() (bpy as a module has
+    no window, so invoke() cannot start a real modal handler; Blender creates operator instances
+    only through bpy.ops). reports collects (set of kinds, message)."""
+
+    def __init__(self, bake_ops, job):
+        cls = bake_ops.PRT_OT_bake_transfer
+        self._bake, self._steps, self._timer, self.reports = job, job.steps(), None, []
+        self.report = lambda kind, msg: self.reports.append((set(kind), msg))
+        self._cleanup = lambda ctx: cls._cleanup(self, ctx)
+        self._fail = lambda ctx, exc: cls._fail(self, ctx, exc)
+        self.modal = lambda ctx, event: cls.modal(self, ctx, event)

@@ -19,7 +19,7 @@ import types
 import numpy as np
 import pytest
 
-from conftest import bundled_hdri_path, fake_event
+from conftest import ModalStandIn, bundled_hdri_path, fake_event
 
 pytestmark = pytest.mark.blender
 
@@ -339,19 +339,6 @@ def test_embree_requested_where_missing(bpy_module, scene, monkeypatch):
 # --- bake: while running ----------------------------------------------------------------------
 
 
-class _StandIn:
-    """Stands in for a PRT_OT_bake_transfer instance driven through modal() (headless has no
-    window, so invoke() cannot start a real modal handler)."""
-
-    def __init__(self, bake_ops, job):
-        self._bake, self._steps, self._timer, self.reports = job, job.steps(), None, []
-        cls = bake_ops.PRT_OT_bake_transfer
-        self.report = lambda kind, msg: self.reports.append((set(kind), msg))
-        self._cleanup = lambda ctx: cls._cleanup(self, ctx)
-        self._fail = lambda ctx, exc: cls._fail(self, ctx, exc)
-        self.modal = lambda ctx, event: cls.modal(self, ctx, event)
-
-
 def _timer_event():
     return fake_event("TIMER", "NOTHING")  # (made when used: conftest's fake_event imports bpy)
 
@@ -363,7 +350,7 @@ def _start_modal(bpy, scene_ns, monkeypatch):
     monkeypatch.setattr(bake_ops, "TIMER_GAP", 0.0)
     job = bake_ops.BakeJob([scene_ns.sphere, scene_ns.ground],
                            bake_ops.BakeSettings(order=4, samples=256, chunk_rays=2048))
-    op = _StandIn(bake_ops, job)
+    op = ModalStandIn(bake_ops, job)
     bake_ops._running.add(op)  # what invoke() does
     assert op.modal(bpy.context, _timer_event()) == {"RUNNING_MODAL"}
     assert 0 < job.fraction < 1
@@ -459,7 +446,7 @@ def test_unregister_in_the_middle_of_a_modal_bake(bpy_module, scene, monkeypatch
     # Another bake invoked but not stepped yet: closing its unstarted steps() generator runs none
     # of the generator's clean-up, so unregister must close the job itself.
     pending_job = bake_ops.BakeJob([scene.ground], bake_ops.BakeSettings(order=2, samples=16))
-    bake_ops._running.add(_StandIn(bake_ops, pending_job))
+    bake_ops._running.add(ModalStandIn(bake_ops, pending_job))
     before = snapshot(bpy)
     job = op._bake
     prt_addon.unregister()  # the user disables the add-on while it bakes

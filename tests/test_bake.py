@@ -10,7 +10,7 @@ import pytest
 
 pytestmark = pytest.mark.blender
 
-from conftest import fake_event, ticks_of_other_threads_after  # noqa: E402
+from conftest import ModalStandIn, fake_event, ticks_of_other_threads_after  # noqa: E402
 from prt_addon.core import analytic, raytrace, transfer  # noqa: E402
 
 
@@ -200,10 +200,6 @@ def test_embree_and_bvhtree_agree_on_the_same_rays(empty_scene, bpy_module, bake
     assert np.mean(np.abs(a - b)) < 1e-3
 
 
-class _FakeOperator:
-    """Stands in for the operator instance (Blender creates those only through bpy.ops)."""
-
-
 def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, bpy_module, bake_ops,
                                                                   monkeypatch):
     monkeypatch.setattr(bake_ops, "TIME_SLICE", 0.0)  # one chunk per timer event
@@ -218,25 +214,19 @@ def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, 
     settings.order, settings.samples = 4, 256
     job = bake_ops.BakeJob([monkey, ground], bake_ops.BakeSettings(order=4, samples=256, chunk_rays=4096))
     # Drive the operator's modal() with a stand-in for the operator instance.
-    op = _FakeOperator()
-    op._bake, op._steps, op._timer, op.reports = job, job.steps(), None, []
-    op.report = lambda kind, msg: op.reports.append((kind, msg))
-    op._cleanup = lambda ctx: bake_ops.PRT_OT_bake_transfer._cleanup(op, ctx)
-    op._fail = lambda ctx, exc: bake_ops.PRT_OT_bake_transfer._fail(op, ctx, exc)
-    modal = bake_ops.PRT_OT_bake_transfer.modal
+    op = ModalStandIn(bake_ops, job)
     timer = fake_event("TIMER", "NOTHING")
-    assert modal(op, bpy.context, timer) == {"RUNNING_MODAL"}
+    assert op.modal(bpy.context, timer) == {"RUNNING_MODAL"}
     assert 0 < job.fraction < 1
-    assert modal(op, bpy.context, fake_event("ESC")) == {"CANCELLED"}
+    assert op.modal(bpy.context, fake_event("ESC")) == {"CANCELLED"}
     assert job._pool._shutdown and all(not t.is_alive() for t in job._pool._threads)
     assert "cancelled" in bake_ops.last_report(empty_scene)["message"]
     assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
     # The modal path also finishes a bake.
-    job = bake_ops.BakeJob([monkey], bake_ops.BakeSettings(order=2, samples=32))
-    op._bake, op._steps = job, job.steps()
+    op = ModalStandIn(bake_ops, bake_ops.BakeJob([monkey], bake_ops.BakeSettings(order=2, samples=32)))
     result = {"RUNNING_MODAL"}
     while result == {"RUNNING_MODAL"}:
-        result = modal(op, bpy.context, timer)
+        result = op.modal(bpy.context, timer)
     assert result == {"FINISHED"} and monkey.data["prt_bake"]["order"] == 2
 
 
@@ -248,22 +238,18 @@ def test_timer_events_right_after_a_slice_do_no_work(empty_scene, bpy_module, ba
     bpy = bpy_module
     ground, monkey = _monkey_on_ground(bpy)
     job = bake_ops.BakeJob([monkey, ground], bake_ops.BakeSettings(order=4, samples=256, chunk_rays=4096))
-    op = _FakeOperator()
-    op._bake, op._steps, op._timer, op.reports = job, job.steps(), None, []
-    op.report = lambda kind, msg: op.reports.append((kind, msg))
-    op._cleanup = lambda ctx: bake_ops.PRT_OT_bake_transfer._cleanup(op, ctx)
-    modal = bake_ops.PRT_OT_bake_transfer.modal
+    op = ModalStandIn(bake_ops, job)
     try:
-        assert modal(op, bpy.context, fake_event("TIMER", "NOTHING")) == {"RUNNING_MODAL"}
+        assert op.modal(bpy.context, fake_event("TIMER", "NOTHING")) == {"RUNNING_MODAL"}
         after_one = job.fraction
         assert 0 < after_one < 1
-        assert modal(op, bpy.context, fake_event("TIMER", "NOTHING")) == {"RUNNING_MODAL"}
+        assert op.modal(bpy.context, fake_event("TIMER", "NOTHING")) == {"RUNNING_MODAL"}
         assert job.fraction == after_one  # right after the slice: no work
         time.sleep(1.5 * bake_ops.TIMER_GAP)
-        assert modal(op, bpy.context, fake_event("TIMER", "NOTHING")) == {"RUNNING_MODAL"}
+        assert op.modal(bpy.context, fake_event("TIMER", "NOTHING")) == {"RUNNING_MODAL"}
         assert job.fraction > after_one
     finally:
-        assert modal(op, bpy.context, fake_event("ESC")) == {"CANCELLED"}
+        assert op.modal(bpy.context, fake_event("ESC")) == {"CANCELLED"}
     assert job._pool._shutdown
 
 
