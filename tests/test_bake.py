@@ -2,7 +2,6 @@
 
 import json
 import time
-import types
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np

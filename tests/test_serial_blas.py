@@ -1,7 +1,5 @@
 """matmul_serial: the same products as numpy's @, without waking a BLAS thread pool."""
 
-import time
-
 import numpy as np
 import pytest
 from conftest import ticks_of_other_threads_after
