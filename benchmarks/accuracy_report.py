@@ -175,13 +175,14 @@ def cycles_bake(bpy, scene, objs, samples, seed):
 
 
 def read_prt(objs):
-    from prt_addon.blender import display
+    from prt_addon.blender import storage
+    from prt_addon.blender.display import gpu_cache
 
     out = []
     for obj in objs:
-        info, problem = display.bake_status(obj.data)
+        info, problem = storage.usable_bake(obj.data)
         assert info is not None and info.domain == "POINT", problem
-        out.append(display.read_transfer(obj.data, info)[:, : info.order**2])
+        out.append(gpu_cache.read_transfer(obj.data, info)[:, : info.order**2])
     return np.concatenate(out)
 
 
@@ -203,23 +204,25 @@ def radiance(transfer, light):
 
 def scene_points(bpy, objs):
     """World positions, normals, offsets and an Embree occluder of the whole scene."""
-    from prt_addon.blender import bake_ops, mesh_io
+    from prt_addon.blender.bake import settings as bake_settings
+    from prt_addon.blender import mesh_read
+    from prt_addon.core import mesh as core_mesh
     from prt_addon.core import raytrace
 
     pos, nrm, off, verts, tris = [], [], [], [], []
     base = 0
     for obj in objs:
-        m4 = mesh_io.matrix_to_numpy(obj.matrix_world)
-        pts = mesh_io.bake_points(obj.data, m4)
+        m4 = core_mesh.matrix_to_numpy(obj.matrix_world)
+        pts = mesh_read.bake_points(obj.data, m4)
         pos.append(pts.positions)
         nrm.append(pts.normals)
-        v = mesh_io.transform_points(m4, mesh_io.read_positions(obj.data))
+        v = core_mesh.transform_points(m4, mesh_read.read_positions(obj.data))
         box = raytrace.bounding_box(v)
         diag = float(np.linalg.norm(box[1] - box[0]))
-        off.append(np.full(len(pts.positions), max(bake_ops.OFFSET_REL * diag,
-                                                    bake_ops.OFFSET_ULP * float(np.abs(v).max()))))
+        off.append(np.full(len(pts.positions), max(bake_settings.OFFSET_REL * diag,
+                                                    bake_settings.OFFSET_ULP * float(np.abs(v).max()))))
         verts.append(v)
-        tris.append(mesh_io.read_triangles(obj.data) + base)
+        tris.append(mesh_read.read_triangles(obj.data) + base)
         base += len(v)
     occ = raytrace.EmbreeOccluder(np.concatenate(verts), np.concatenate(tris))
     return np.concatenate(pos), np.concatenate(nrm), np.concatenate(off), occ

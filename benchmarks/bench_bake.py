@@ -31,7 +31,10 @@ import numpy as np  # noqa: E402
 
 import prt_addon  # noqa: E402
 from prt_addon import api  # noqa: E402
-from prt_addon.blender import bake_ops  # noqa: E402
+from prt_addon.blender.bake import job as bake_job
+from prt_addon.blender.bake import settings as bake_settings
+from prt_addon.core import mesh as core_mesh
+from prt_addon.blender.bake import scene as bake_scene
 from prt_addon.core import raytrace, transfer  # noqa: E402
 
 
@@ -58,9 +61,9 @@ def build_scene(subdiv, grid):
 
 def same_rays(objects, samples):
     """The rays the bake traces (same culling, same order) and the scene's triangles."""
-    job = bake_ops.BakeJob(objects, bake_ops.BakeSettings(order=4, samples=samples, backend="EMBREE"))
-    parts = bake_ops._scene_parts(bpy.context.evaluated_depsgraph_get())
-    vertices, triangles = bake_ops._concatenate(parts)
+    job = bake_job.BakeJob(objects, bake_settings.BakeSettings(order=4, samples=samples, backend="EMBREE"))
+    parts = bake_scene.scene_parts(bpy.context.evaluated_depsgraph_get())
+    vertices, triangles = core_mesh.concatenate_parts(parts)
     batches = [b for plan in job.plans for b in plan.computation.iter_rays()]
     job.close()
     origins = np.ascontiguousarray(np.concatenate([o for o, _d in batches]))
@@ -115,11 +118,11 @@ def timed(fn, *args):
 
 
 def bake_phases(objects, samples):
-    """api.bake's steps (bake_ops.bake: BakeJob(...).run()) timed separately: extraction and
+    """api.bake's steps (bake_job.bake: BakeJob(...).run()) timed separately: extraction and
     checks (creating the job, with the scene's BVH building on a worker meanwhile), compute
     (what is left of the BVH build, tracing, projection), writing."""
-    settings = bake_ops.BakeSettings(order=4, samples=samples, backend="EMBREE", threads=2)
-    job, w_prep, c_prep = timed(bake_ops.BakeJob, objects, settings)
+    settings = bake_settings.BakeSettings(order=4, samples=samples, backend="EMBREE", threads=2)
+    job, w_prep, c_prep = timed(bake_job.BakeJob, objects, settings)
     _, w_comp, c_comp = timed(lambda: [None for _ in job.steps()])
     report, w_write, c_write = timed(job.finish)
     return report, (w_prep + w_comp + w_write, w_comp, c_prep + c_comp + c_write, c_comp)

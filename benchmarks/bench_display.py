@@ -23,7 +23,12 @@ import gpu  # noqa: E402
 import numpy as np  # noqa: E402
 
 import prt_addon  # noqa: E402
-from prt_addon.blender import display, offscreen  # noqa: E402
+from prt_addon.blender import storage
+from prt_addon.blender.display import gpu_cache
+from prt_addon.blender.display import draw as display_draw
+from prt_addon.blender.display import shader as display_shader
+from prt_addon.blender.display import lighting
+from prt_addon.blender.display import offscreen
 from prt_addon.core import analytic, sh  # noqa: E402
 
 
@@ -57,7 +62,7 @@ def make_sphere(triangles):
 def write_transfer(obj, order):
     """Unshadowed transfer (clamped cosine about the normal), written per docs/storage.md."""
     mesh = obj.data
-    for name in [a.name for a in mesh.attributes if a.name.startswith(display.ATTR_PREFIX)]:
+    for name in [a.name for a in mesh.attributes if a.name.startswith(storage.PREFIX)]:
         mesh.attributes.remove(mesh.attributes[name])
     n = len(mesh.vertices)
     co = np.empty(n * 3, dtype=np.float32)
@@ -65,14 +70,14 @@ def write_transfer(obj, order):
     normals = co.reshape(-1, 3).astype(np.float64)
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     n2 = order * order
-    count = display.attribute_count(order)
+    count = storage.attribute_count(order)
     zonal = analytic.clamped_cosine_zonal(order)
     bands = sh.band_of_index(order)
     scale = np.sqrt(4 * np.pi / (2 * bands + 1)) * zonal[bands]
     padded = np.zeros((n, 4 * count), dtype=np.float32)
     for s in range(0, n, 200000):
         padded[s : s + 200000, :n2] = sh.sh_basis(normals[s : s + 200000], order) * scale
-    names = [display.attribute_name(k) for k in range(count)]
+    names = [storage.attribute_name(k) for k in range(count)]
     for name in names:
         mesh.color_attributes.new(name, "FLOAT_COLOR", "POINT")
     for k, name in enumerate(names):
@@ -92,7 +97,7 @@ def time_frames(scene, obj, mvp, entry, prt_shader, flat, frames, size):
             fb.clear(color=(0, 0, 0, 0), depth=1.0)
             t0 = time.perf_counter()
             if kind == "prt":
-                display.draw_objects(scene, mvp, [obj])
+                display_draw.draw_objects(scene, mvp, [obj])
             else:
                 flat.bind()
                 flat.uniform_float("mvp", mvp @ obj.matrix_world)
@@ -117,8 +122,8 @@ def rotation_update_cost(order, repeats=50):
     from prt_addon.core import rotation
 
     light = analytic.cap_coeffs(order, (1.0, 0.0, 0.0), 0.3, radiance=(5.0, 4.0, 3.0))
-    count = display.attribute_count(order)
-    ubo = gpu.types.GPUUniformBuf(display.light_ubo_bytes(light, count))
+    count = storage.attribute_count(order)
+    ubo = gpu.types.GPUUniformBuf(display_shader.light_ubo_bytes(light, count))
     obj_matrix = np.eye(4)
     obj_matrix[:3, :3] = rotation.euler_xyz_matrix((0.3, 0.2, 0.1))
     times = []
@@ -126,8 +131,8 @@ def rotation_update_cost(order, repeats=50):
         euler = (0.0, 0.0, 0.01 * (i + 1))
         t0 = time.perf_counter()
         world = rotation.rotate(light, rotation.euler_xyz_matrix(euler).T)
-        local = display.light_in_local_frame(world, obj_matrix, order)
-        ubo.update(display.light_ubo_bytes(local, count))
+        local = lighting.light_in_local_frame(world, obj_matrix, order)
+        ubo.update(display_shader.light_ubo_bytes(local, count))
         times.append(time.perf_counter() - t0)
     return statistics.median(times)
 
@@ -165,13 +170,13 @@ def main():
           f"{args.size}x{args.size} offscreen, median of {args.frames} interleaved frames")
     print(f"{'order':>5} {'coeffs':>6} {'path':>8} {'flat ms':>9} {'PRT ms':>9} {'ratio':>6}")
     for order in args.orders:
-        display.clear_caches()
+        gpu_cache.clear_caches()
         write_transfer(obj, order)
-        display.set_light_override(scene, analytic.cap_coeffs(order, (1, 0, 0), 0.3, radiance=(5, 4, 3)))
-        info, _ = display.bake_status(obj.data)
-        entry = display.get_mesh_entry(obj.data, info, "WHITE", "")
-        prt_t, flat_t = time_frames(scene, obj, mvp, entry, display.get_shader(info.count), flat, args.frames, args.size)
-        print(f"{order:>5} {order * order:>6} {display.shader_mode(info.count):>8} "
+        lighting.set_light_override(scene, analytic.cap_coeffs(order, (1, 0, 0), 0.3, radiance=(5, 4, 3)))
+        info, _ = storage.usable_bake(obj.data)
+        entry = gpu_cache.get_mesh_entry(obj.data, info, "WHITE", "")
+        prt_t, flat_t = time_frames(scene, obj, mvp, entry, display_shader.get_shader(info.count), flat, args.frames, args.size)
+        print(f"{order:>5} {order * order:>6} {display_shader.shader_mode(info.count):>8} "
               f"{flat_t * 1e3:>9.1f} {prt_t * 1e3:>9.1f} {prt_t / flat_t:>6.2f}")
 
     print()

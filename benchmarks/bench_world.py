@@ -18,7 +18,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 import bpy  # noqa: E402
 
 import prt_addon  # noqa: E402
-from prt_addon.blender import world as world_mod  # noqa: E402
+from prt_addon.blender.world import projection as world_projection
 
 ORDERS = (3, 8, 16)
 HDRIS = ("city", "courtyard", "forest", "interior", "night", "studio", "sunrise", "sunset")
@@ -70,9 +70,9 @@ def main():
         def update():
             angle[0] += 0.01
             mapping.inputs["Rotation"].default_value = (0.3, 0.2, angle[0])
-            world_mod.current_world_coeffs(scene)
+            world_projection.current_world_coeffs(scene)
 
-        cached = median_time(lambda: world_mod.current_world_coeffs(scene), repeats * 20)
+        cached = median_time(lambda: world_projection.current_world_coeffs(scene), repeats * 20)
         print(f"  order {order:>2}: {1e3 * median_time(update, repeats * 20):.3f} ms "
               f"(unchanged rotation, cached: {1e3 * cached:.3f} ms)")
 

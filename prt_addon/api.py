@@ -40,12 +40,12 @@ def project_world(scene=None, order=None):
     """Project scene.world (default: the context scene) into SH, store it on the scene and
     return the world-space coefficients (order**2, 3). order=None uses scene.prt_world.order.
 
-    Raises ValueError (prt_addon.blender.world.WorldError) with a clear message when the world
+    Raises ValueError (prt_addon.blender.world.nodes.WorldError) with a clear message when the world
     cannot be projected; the stored lighting is then left unchanged.
     """
     import bpy
 
-    from .blender import world as _world
+    from .blender.world import projection as _world
 
     scene = bpy.context.scene if scene is None else scene
     return _world.project_and_store(scene, order).coeffs.copy()
@@ -56,7 +56,7 @@ def world_lighting(scene=None):
     or None if nothing was projected."""
     import bpy
 
-    from .blender import world as _world
+    from .blender.world import projection as _world
 
     return _world.current_world_coeffs(bpy.context.scene if scene is None else scene)
 
@@ -66,22 +66,22 @@ def shade(obj, scene=None):
     surface (albedo excluded): max(sum_i L_i t_i, 0) per channel with the scene's lighting
     rotated into obj's local frame. One row per vertex for a POINT-domain bake (per face corner
     for CORNER), the quantity Cycles' DIFFUSE bake with pass_filter={'DIRECT'} writes."""
-    from .blender import display as _display
+    from .blender.display import lighting as _lighting
 
-    return _display.shade(obj, scene)
+    return _lighting.shade(obj, scene)
 
 
 def render_view(scene=None, width=None, height=None, camera=None):
     """(H, W, 4) float32 linear image of the baked objects drawn with the PRT shader from the
     scene camera, offscreen, top row first (alpha 0 where nothing is drawn)."""
-    from .blender import offscreen as _offscreen
+    from .blender.display import offscreen as _offscreen
 
     return _offscreen.render_view(scene, width, height, camera)
 
 
 def save_png(image, path, scene=None, background=None):
     """Save an image from render_view as PNG through the scene's colour management."""
-    from .blender import offscreen as _offscreen
+    from .blender.display import offscreen as _offscreen
 
     return _offscreen.save_png(image, path, scene, background)
 
@@ -96,16 +96,17 @@ def bake(objects, order=4, samples=256, shadows=True, backend="AUTO", direction_
     self_shadow_only: only each object itself occludes (else every visible mesh in the scene).
     progress: optional callable(fraction, text) after each chunk; an exception raised there
     aborts the bake and leaves every mesh unchanged.
-    options: cull=True (skip rays where nothing can occlude), depsgraph, chunk_rays, threads.
+    options: cull=True (skip rays where nothing can occlude), depsgraph, chunk_rays, threads
+    (None, the default: Blender's own setting, Render Properties > Performance > Threads).
 
     Returns a BakeReport (seconds, rays_traced, rays_skipped and the reasons, backend,
     error_estimate, error_estimate_relative, objects, skipped). Raises ValueError (BakeError)
     with a clear message when nothing can be baked (empty selection, no mesh with faces, ...).
     No undo step is pushed: use the operator prt.bake_transfer for that.
     """
-    from .blender import bake_ops as _bake_ops
+    from .blender.bake import job as _job
 
-    return _bake_ops.bake(objects, order=order, samples=samples, shadows=shadows, backend=backend,
+    return _job.bake(objects, order=order, samples=samples, shadows=shadows, backend=backend,
                           direction_set=direction_set, seed=seed,
                           self_shadow_only=self_shadow_only, progress=progress, **options)
 
@@ -113,7 +114,7 @@ def bake(objects, order=4, samples=256, shadows=True, backend="AUTO", direction_
 def bake_status(obj, reason=False):
     """'fresh', 'stale' (the topology changed since the bake) or 'none' for an object;
     with reason=True, a (status, explanation) pair."""
-    from .blender import bake_ops as _bake_ops
+    from .blender.bake import job as _job
 
-    state, why = _bake_ops.status(obj)
+    state, why = _job.status(obj)
     return (state, why) if reason else state

@@ -122,7 +122,7 @@ def run_scene(args):
 
     import prt_addon
     from prt_addon import api
-    from prt_addon.blender import offscreen
+    from prt_addon.blender.display import offscreen
 
     offscreen.ensure_gpu()  # before building large meshes: it renders a scene (REFERENCE.md)
     try:

@@ -69,6 +69,8 @@ def build_scene():
 
 
 def use_it(result, api):
+    from prt_addon.blender.bake import reports as bake_reports
+    from prt_addon.blender.display import draw as display_draw
     import numpy as np
 
     scene = bpy.context.scene
@@ -82,7 +84,7 @@ def use_it(result, api):
     scene.prt_bake.order, scene.prt_bake.samples = 4, 64
     result["bake"] = list(bpy.ops.prt.bake_transfer())
     bake_ops = sys.modules[MODULE + ".prt_addon.blender.bake_ops"]
-    result["bake_report"] = bake_ops.last_report(scene)
+    result["bake_report"] = bake_reports.last_report(scene)
     result["backend"] = sphere.data["prt_bake"]["backend"]
     result["status"] = [api.bake_status(plane), api.bake_status(sphere)]
     radiance = api.shade(sphere)
@@ -97,11 +99,13 @@ def use_it(result, api):
     rotated = api.shade(sphere)
     result["rotation_changes_shading"] = float(np.abs(rotated - radiance).max())
     display = sys.modules[MODULE + ".prt_addon.blender.display"]
-    result["draw_handler_while_enabled"] = display.draw_handle() is not None
+    result["draw_handler_while_enabled"] = display_draw.draw_handle() is not None
     return display, bake_ops
 
 
 def main(zip_path, result_path, mode="embree"):
+    from prt_addon.blender.bake import runner as bake_runner
+    from prt_addon.blender.display import draw as display_draw
     import addon_utils
     import numpy as np
 
@@ -133,8 +137,8 @@ def main(zip_path, result_path, mode="embree"):
                                          if hasattr(bpy.types, f"PRT_OT_{n}")]
     result["handlers_after_disable"] = our_handlers()
     result["timers_after_disable"] = registered_timers(funcs)
-    result["draw_handler_after_disable"] = display.draw_handle() is not None
-    result["running_bakes_after_disable"] = len(bake_ops._running)
+    result["draw_handler_after_disable"] = display_draw.draw_handle() is not None
+    result["running_bakes_after_disable"] = len(bake_runner._running)
     result["uninstall"] = list(bpy.ops.extensions.package_uninstall(repo_index=repos.index("user_default"), pkg_id="prt_lighting"))
     result["files_left"] = os.path.exists(os.path.join(bpy.utils.user_resource("EXTENSIONS"), "user_default", "prt_lighting"))
     with open(result_path, "w") as f:

@@ -124,12 +124,12 @@ def refused(bpy, call, match):
 @pytest.fixture(autouse=True)
 def _no_bake_left_running(addon):
     yield
-    from prt_addon.blender import bake_ops
+    from prt_addon.blender.bake import runner as bake_runner
 
-    for op in list(bake_ops._running):
+    for op in list(bake_runner._running):
         op._bake.cancel()
         op._steps.close()
-    bake_ops._running.clear()
+    bake_runner._running.clear()
 
 
 @pytest.fixture
@@ -344,23 +344,29 @@ def _timer_event():
 
 
 def _start_modal(bpy, scene_ns, monkeypatch):
-    from prt_addon.blender import bake_ops
+    from prt_addon.blender.bake import job as bake_job
+    from prt_addon.blender.bake import settings as bake_settings
+    from prt_addon.blender.bake import runner as bake_runner
+    from prt_addon.blender.ops import bake as bake_op
 
-    monkeypatch.setattr(bake_ops, "TIME_SLICE", 0.0)
-    monkeypatch.setattr(bake_ops, "TIMER_GAP", 0.0)
-    job = bake_ops.BakeJob([scene_ns.sphere, scene_ns.ground],
-                           bake_ops.BakeSettings(order=4, samples=256, chunk_rays=2048))
-    op = ModalStandIn(bake_ops, job)
-    bake_ops._running.add(op)  # what invoke() does
+    monkeypatch.setattr(bake_runner, "TIME_SLICE", 0.0)
+    monkeypatch.setattr(bake_runner, "TIMER_GAP", 0.0)
+    job = bake_job.BakeJob([scene_ns.sphere, scene_ns.ground],
+                           bake_settings.BakeSettings(order=4, samples=256, chunk_rays=2048))
+    op = ModalStandIn(bake_op, job)
+    bake_runner._running.add(op)  # what invoke() does
     assert op.modal(bpy.context, _timer_event()) == {"RUNNING_MODAL"}
     assert 0 < job.fraction < 1
-    return bake_ops, op
+    return bake_runner, op
 
 
 def test_invoke_failing_after_the_job_starts_stops_it(bpy_module, scene, monkeypatch):
     """invoke() creates the job (whose first slices start tracing at once), then adds the timer
     and the modal handler: if that fails, the job's threads are stopped and nothing is kept."""
-    from prt_addon.blender import bake_ops
+    from prt_addon.blender.bake import job as bake_job
+    from prt_addon.blender.bake import settings as bake_settings
+    from prt_addon.blender.ops import bake as bake_op
+    from prt_addon.blender.bake import runner as bake_runner
 
     bpy = bpy_module
 
@@ -380,12 +386,12 @@ def test_invoke_failing_after_the_job_starts_stops_it(bpy_module, scene, monkeyp
     class Operator:
         pass
 
-    monkeypatch.setattr(bake_ops, "bpy", WithWindow())
-    job = bake_ops.BakeJob([scene.sphere, scene.ground],
-                           bake_ops.BakeSettings(order=4, samples=256, chunk_rays=2048))
+    monkeypatch.setattr(bake_runner, "bpy", WithWindow())
+    job = bake_job.BakeJob([scene.sphere, scene.ground],
+                           bake_settings.BakeSettings(order=4, samples=256, chunk_rays=2048))
     assert job.plans[0].computation._pending, "the first object's slices should be queued"
     op = Operator()
-    cls = bake_ops.PRT_OT_bake_transfer
+    cls = bake_op.PRT_OT_bake_transfer
     op._job = lambda context: job
     op._cleanup = lambda context: cls._cleanup(op, context)
     context = types.SimpleNamespace(window=object(), window_manager=WindowManager(), workspace=None,
@@ -393,12 +399,13 @@ def test_invoke_failing_after_the_job_starts_stops_it(bpy_module, scene, monkeyp
     before = snapshot(bpy)
     with pytest.raises(RuntimeError, match="no timer"):
         cls.invoke(op, context, None)
-    assert op not in bake_ops._running
+    assert op not in bake_runner._running
     assert job._pool._shutdown and all(not t.is_alive() for t in job._pool._threads)
     assert_unchanged(before, snapshot(bpy))
 
 
 def test_bake_while_another_bake_runs(bpy_module, scene, monkeypatch):
+    from prt_addon.blender.bake import runner as bake_runner
     bpy = bpy_module
     before = snapshot(bpy)
     bake_ops, op = _start_modal(bpy, scene, monkeypatch)
@@ -409,11 +416,12 @@ def test_bake_while_another_bake_runs(bpy_module, scene, monkeypatch):
         assert_unchanged(before, snapshot(bpy))
     finally:
         assert op.modal(bpy.context, fake_event("ESC")) == {"CANCELLED"}
-    assert not bake_ops._running
+    assert not bake_runner._running
     assert ({"WARNING"}, "PRT: bake cancelled, nothing was changed") in op.reports
 
 
 def test_topology_change_during_modal_bake(bpy_module, scene, monkeypatch):
+    from prt_addon.blender.bake import runner as bake_runner
     import bmesh
 
     bpy = bpy_module
@@ -433,10 +441,13 @@ def test_topology_change_during_modal_bake(bpy_module, scene, monkeypatch):
     assert any("ERROR" in kind and "topology of 'Sphere' changed during the bake: bake again" in msg
                for kind, msg in op.reports), op.reports
     assert_unchanged(before, snapshot(bpy))
-    assert not bake_ops._running
+    assert not bake_runner._running
 
 
 def test_unregister_in_the_middle_of_a_modal_bake(bpy_module, scene, monkeypatch):
+    from prt_addon.blender.bake import job as bake_job
+    from prt_addon.blender.bake import runner as bake_runner
+    from prt_addon.blender.bake import settings as bake_settings
     bpy = bpy_module
     import prt_addon
 
@@ -445,14 +456,16 @@ def test_unregister_in_the_middle_of_a_modal_bake(bpy_module, scene, monkeypatch
     op._timer = wm.event_timer_add(0.02)  # a real window-manager timer, as invoke() adds
     # Another bake invoked but not stepped yet: closing its unstarted steps() generator runs none
     # of the generator's clean-up, so unregister must close the job itself.
-    pending_job = bake_ops.BakeJob([scene.ground], bake_ops.BakeSettings(order=2, samples=16))
-    bake_ops._running.add(ModalStandIn(bake_ops, pending_job))
+    pending_job = bake_job.BakeJob([scene.ground], bake_settings.BakeSettings(order=2, samples=16))
+    from prt_addon.blender.ops import bake as bake_op
+
+    bake_runner._running.add(ModalStandIn(bake_op, pending_job))
     before = snapshot(bpy)
     job = op._bake
     prt_addon.unregister()  # the user disables the add-on while it bakes
     try:
         assert op._timer is None, "the bake's timer was not removed"
-        assert not bake_ops._running and job._cancel
+        assert not bake_runner._running and job._cancel
         assert job._pool._shutdown, "the bake's worker threads were not stopped"
         assert pending_job._cancel
         assert pending_job._pool._shutdown, "the pending bake's worker threads were not stopped"

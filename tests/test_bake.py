@@ -15,16 +15,16 @@ from prt_addon.core import analytic, raytrace, transfer  # noqa: E402
 
 @pytest.fixture
 def bake_ops(addon):
-    from prt_addon.blender import bake_ops
+    from prt_addon.blender.ops import bake as bake_ops
 
     return bake_ops
 
 
 @pytest.fixture
 def mesh_io(addon):
-    from prt_addon.blender import mesh_io
+    from prt_addon.blender import mesh_read
 
-    return mesh_io
+    return mesh_read
 
 
 def _monkey_on_ground(bpy, ground_cuts=8, smooth=True):
@@ -59,6 +59,7 @@ def _scale_scene(bpy, factor):
 
 
 def test_operator_bakes_selection_and_writes_storage(empty_scene, bpy_module, mesh_io):
+    from prt_addon.blender import storage
     bpy = bpy_module
     ground, monkey = _monkey_on_ground(bpy)
     for obj in (ground, monkey):
@@ -72,7 +73,7 @@ def test_operator_bakes_selection_and_writes_storage(empty_scene, bpy_module, me
     for k in range(3):
         attr = monkey.data.attributes[f"prt_t{k:02d}"]
         assert attr.data_type == "FLOAT_COLOR" and attr.domain == "POINT"
-    values = mesh_io.read_transfer(monkey.data)
+    values = storage.read_transfer(monkey.data)
     assert values.shape == (len(monkey.data.vertices), 9) and np.isfinite(values).all()
     report = json.loads(settings.last_report)
     assert report["ok"] and report["rays_traced"] > 0 and report["error_estimate"] > 0
@@ -103,6 +104,7 @@ def test_loose_vertices_do_not_fool_the_per_vertex_shortcut(empty_scene, bpy_mod
     """Two flat triangles folded along an edge (its 2 vertices have 2 normals each) plus 2 loose
     vertices: 6 (vertex, normal) pairs for 6 vertices, but not one normal per vertex. It must bake
     per corner, each corner holding the clamped cosine of its own face's normal."""
+    from prt_addon.blender import storage
     bpy = bpy_module
     mesh = bpy.data.meshes.new("fold")
     verts = [(0, 0, 0), (1, 0, 0), (0.5, 1, 0), (0.5, -1, 0.8), (5, 5, 5), (6, 5, 5)]
@@ -114,7 +116,7 @@ def test_loose_vertices_do_not_fool_the_per_vertex_shortcut(empty_scene, bpy_mod
 
     api.bake([obj], order=2, samples=64, shadows=False)
     assert mesh["prt_bake"]["domain"] == "CORNER"
-    values = mesh_io.read_transfer(mesh)
+    values = storage.read_transfer(mesh)
     face_normals = np.array([p.normal for p in mesh.polygons])
     expected = np.array([analytic.clamped_cosine_coeffs(2, face_normals[p.index])
                          for p in mesh.polygons for _ in p.loop_indices])
@@ -124,6 +126,8 @@ def test_loose_vertices_do_not_fool_the_per_vertex_shortcut(empty_scene, bpy_mod
 def test_unoccluded_vertex_is_clamped_cosine_in_local_frame(empty_scene, bpy_module, mesh_io):
     """A lone convex object: no rays at all, and each vertex stores the clamped cosine of its
     local normal (the local frame undoes the object's rotation and scale)."""
+    from prt_addon.blender import mesh_read
+    from prt_addon.blender import storage
     bpy = bpy_module
     bpy.ops.mesh.primitive_uv_sphere_add(segments=12, ring_count=6, rotation=(0.3, 0.5, 0.7),
                                          scale=(1, 2, 0.5))
@@ -134,19 +138,20 @@ def test_unoccluded_vertex_is_clamped_cosine_in_local_frame(empty_scene, bpy_mod
     report = api.bake([sphere], order=3, samples=2048)
     assert report.rays_traced == 0 and report.backend == "NONE"
     assert report.skipped_unoccludable > 0
-    normals = mesh_io.read_vertex_normals(sphere.data).astype(np.float64)
+    normals = mesh_read.read_vertex_normals(sphere.data).astype(np.float64)
     # Normals in the local frame: world normal (inverse transpose) rotated back by R^-1.
     m = np.array(sphere.matrix_world)[:3, :3]
     world = normals @ np.linalg.inv(m)
     world /= np.linalg.norm(world, axis=1, keepdims=True)
     r, _ = transfer.frame_rotation(m)
     local = world @ r
-    values = mesh_io.read_transfer(sphere.data)
+    values = storage.read_transfer(sphere.data)
     expected = np.array([analytic.clamped_cosine_coeffs(3, n) for n in local])
     np.testing.assert_allclose(values, expected, atol=2e-4)
 
 
 def test_coarse_smooth_mesh_does_not_shadow_itself(empty_scene, bpy_module, mesh_io):
+    from prt_addon.blender import storage
     bpy = bpy_module
     bpy.ops.mesh.primitive_uv_sphere_add(segments=8, ring_count=4)
     sphere = bpy.context.object
@@ -155,17 +160,21 @@ def test_coarse_smooth_mesh_does_not_shadow_itself(empty_scene, bpy_module, mesh
 
     report = api.bake([sphere], order=3, samples=512, self_shadow_only=True, cull=False)
     assert report.rays_traced > 0
-    shadowed = mesh_io.read_transfer(sphere.data)
+    shadowed = storage.read_transfer(sphere.data)
     api.bake([sphere], order=3, samples=512, shadows=False)
-    np.testing.assert_array_equal(shadowed, mesh_io.read_transfer(sphere.data))
+    np.testing.assert_array_equal(shadowed, storage.read_transfer(sphere.data))
 
 
 def _parity_rays(bake_ops, objects, samples):
-    job = bake_ops.BakeJob(objects, bake_ops.BakeSettings(order=2, samples=samples, backend="EMBREE"))
+    from prt_addon.blender.bake import job as bake_job
+    from prt_addon.blender.bake import scene as bake_scene
+    from prt_addon.blender.bake import settings as bake_settings
+    from prt_addon.core import mesh as core_mesh
+    job = bake_job.BakeJob(objects, bake_settings.BakeSettings(order=2, samples=samples, backend="EMBREE"))
     import bpy
 
-    parts = bake_ops._scene_parts(bpy.context.evaluated_depsgraph_get())
-    vertices, triangles = bake_ops._concatenate(parts)
+    parts = bake_scene.scene_parts(bpy.context.evaluated_depsgraph_get())
+    vertices, triangles = core_mesh.concatenate_parts(parts)
     origins, dirs = [], []
     for plan in job.plans:
         for o, d in plan.computation.iter_rays():
@@ -188,12 +197,13 @@ def test_embree_and_bvhtree_agree_on_the_same_rays(empty_scene, bpy_module, bake
     # And whole bakes agree.
     from prt_addon import api
 
-    from prt_addon.blender import mesh_io
+
+    from prt_addon.blender import storage
 
     r1 = api.bake([monkey], order=3, samples=64, backend="EMBREE")
-    a = mesh_io.read_transfer(monkey.data)
+    a = storage.read_transfer(monkey.data)
     r2 = api.bake([monkey], order=3, samples=64, backend="BVHTREE")
-    b = mesh_io.read_transfer(monkey.data)
+    b = storage.read_transfer(monkey.data)
     assert (r1.backend, r2.backend) == ("EMBREE", "BVHTREE")
     assert monkey.data["prt_bake"]["backend"] == "BVHTREE"
     assert np.mean(np.abs(a - b)) < 1e-3
@@ -201,8 +211,12 @@ def test_embree_and_bvhtree_agree_on_the_same_rays(empty_scene, bpy_module, bake
 
 def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, bpy_module, bake_ops,
                                                                   monkeypatch):
-    monkeypatch.setattr(bake_ops, "TIME_SLICE", 0.0)  # one chunk per timer event
-    monkeypatch.setattr(bake_ops, "TIMER_GAP", 0.0)  # (tested on its own below)
+    from prt_addon.blender.bake import runner as bake_runner
+    from prt_addon.blender.bake import job as bake_job
+    from prt_addon.blender.bake import reports as bake_reports
+    from prt_addon.blender.bake import settings as bake_settings
+    monkeypatch.setattr(bake_runner, "TIME_SLICE", 0.0)  # one chunk per timer event
+    monkeypatch.setattr(bake_runner, "TIMER_GAP", 0.0)  # (tested on its own below)
     bpy = bpy_module
     ground, monkey = _monkey_on_ground(bpy)
     from prt_addon import api
@@ -211,7 +225,7 @@ def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, 
     before = {o.name: _attr_bytes(o.data) for o in (ground, monkey)}
     settings = empty_scene.prt_bake
     settings.order, settings.samples = 4, 256
-    job = bake_ops.BakeJob([monkey, ground], bake_ops.BakeSettings(order=4, samples=256, chunk_rays=4096))
+    job = bake_job.BakeJob([monkey, ground], bake_settings.BakeSettings(order=4, samples=256, chunk_rays=4096))
     # Drive the operator's modal() with a stand-in for the operator instance.
     op = ModalStandIn(bake_ops, job)
     timer = fake_event("TIMER", "NOTHING")
@@ -219,10 +233,10 @@ def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, 
     assert 0 < job.fraction < 1
     assert op.modal(bpy.context, fake_event("ESC")) == {"CANCELLED"}
     assert job._pool._shutdown and all(not t.is_alive() for t in job._pool._threads)
-    assert "cancelled" in bake_ops.last_report(empty_scene)["message"]
+    assert "cancelled" in bake_reports.last_report(empty_scene)["message"]
     assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
     # The modal path also finishes a bake.
-    op = ModalStandIn(bake_ops, bake_ops.BakeJob([monkey], bake_ops.BakeSettings(order=2, samples=32)))
+    op = ModalStandIn(bake_ops, bake_job.BakeJob([monkey], bake_settings.BakeSettings(order=2, samples=32)))
     result = {"RUNNING_MODAL"}
     while result == {"RUNNING_MODAL"}:
         result = op.modal(bpy.context, timer)
@@ -233,10 +247,13 @@ def test_timer_events_right_after_a_slice_do_no_work(empty_scene, bpy_module, ba
     """Blender's events do not say which timer fired, so any TIMER event can run a slice; one that
     comes within TIMER_GAP of the end of the previous slice (another add-on's timer) does none,
     so the UI gets its turn between slices."""
-    monkeypatch.setattr(bake_ops, "TIME_SLICE", 0.0)
+    from prt_addon.blender.bake import job as bake_job
+    from prt_addon.blender.bake import runner as bake_runner
+    from prt_addon.blender.bake import settings as bake_settings
+    monkeypatch.setattr(bake_runner, "TIME_SLICE", 0.0)
     bpy = bpy_module
     ground, monkey = _monkey_on_ground(bpy)
-    job = bake_ops.BakeJob([monkey, ground], bake_ops.BakeSettings(order=4, samples=256, chunk_rays=4096))
+    job = bake_job.BakeJob([monkey, ground], bake_settings.BakeSettings(order=4, samples=256, chunk_rays=4096))
     op = ModalStandIn(bake_ops, job)
     try:
         assert op.modal(bpy.context, fake_event("TIMER", "NOTHING")) == {"RUNNING_MODAL"}
@@ -244,7 +261,7 @@ def test_timer_events_right_after_a_slice_do_no_work(empty_scene, bpy_module, ba
         assert 0 < after_one < 1
         assert op.modal(bpy.context, fake_event("TIMER", "NOTHING")) == {"RUNNING_MODAL"}
         assert job.fraction == after_one  # right after the slice: no work
-        time.sleep(1.5 * bake_ops.TIMER_GAP)
+        time.sleep(1.5 * bake_runner.TIMER_GAP)
         assert op.modal(bpy.context, fake_event("TIMER", "NOTHING")) == {"RUNNING_MODAL"}
         assert job.fraction > after_one
     finally:
@@ -256,10 +273,12 @@ def test_scene_bvh_is_built_only_when_a_ray_can_be_traced(empty_scene, bpy_modul
     """A lone convex object traces nothing, so its job never builds the scene's BVH (the
     background build starts only when some object can trace); Suzanne can shadow itself, so
     hers is built. A job closed before its first step leaves no worker thread behind."""
+    from prt_addon.blender.bake import job as bake_job
+    from prt_addon.blender.bake import settings as bake_settings
     bpy = bpy_module
     bpy.ops.mesh.primitive_uv_sphere_add(segments=16, ring_count=8)
     sphere = bpy.context.object
-    job = bake_ops.BakeJob([sphere], bake_ops.BakeSettings(order=2, samples=64, backend="EMBREE"))
+    job = bake_job.BakeJob([sphere], bake_settings.BakeSettings(order=2, samples=64, backend="EMBREE"))
     report = job.run()
     assert report.rays_traced == 0 and job._occluder is not None and not job._occluder.built
 
@@ -267,11 +286,11 @@ def test_scene_bvh_is_built_only_when_a_ray_can_be_traced(empty_scene, bpy_modul
     sphere.hide_set(True)
     bpy.ops.mesh.primitive_monkey_add()
     monkey = bpy.context.object
-    job = bake_ops.BakeJob([monkey], bake_ops.BakeSettings(order=2, samples=64, backend="EMBREE"))
+    job = bake_job.BakeJob([monkey], bake_settings.BakeSettings(order=2, samples=64, backend="EMBREE"))
     report = job.run()
     assert report.rays_traced > 0 and job._occluder.built
 
-    job = bake_ops.BakeJob([monkey], bake_ops.BakeSettings(order=2, samples=64, backend="EMBREE"))
+    job = bake_job.BakeJob([monkey], bake_settings.BakeSettings(order=2, samples=64, backend="EMBREE"))
     job.steps().close()  # a generator closed before its first step runs no clean-up of its own
     job.close()  # what the operator's clean-up does
     assert job._pool._shutdown and all(not t.is_alive() for t in job._pool._threads)
@@ -282,10 +301,13 @@ def test_first_object_traces_while_the_others_are_prepared(empty_scene, bpy_modu
     """The job queues the first object's slices as soon as its points are ready: one of them is
     traced while the second object's points are still being read. A failure there stops them and
     leaves no thread behind."""
+    from prt_addon.blender.bake import job as bake_job
+    from prt_addon.blender.bake import settings as bake_settings
+    from prt_addon.blender import mesh_read
     bpy = bpy_module
     ground, monkey = _monkey_on_ground(bpy)
     started, seen = [], []
-    real_start, real_points = bake_ops.transfer.TransferComputation.start, mesh_io.bake_points
+    real_start, real_points = bake_job.transfer.TransferComputation.start, mesh_read.bake_points
 
     def recording_start(self):
         started.append(self)
@@ -298,10 +320,10 @@ def test_first_object_traces_while_the_others_are_prepared(empty_scene, bpy_modu
             seen.append(started[0].done == 0 and future.done())
         return real_points(mesh, *args)
 
-    monkeypatch.setattr(bake_ops.transfer.TransferComputation, "start", recording_start)
-    monkeypatch.setattr(mesh_io, "bake_points", points)
-    settings = bake_ops.BakeSettings(order=3, samples=64, backend="EMBREE", threads=2)
-    job = bake_ops.BakeJob([monkey, ground], settings)
+    monkeypatch.setattr(bake_job.transfer.TransferComputation, "start", recording_start)
+    monkeypatch.setattr(mesh_read, "bake_points", points)
+    settings = bake_settings.BakeSettings(order=3, samples=64, backend="EMBREE", threads=2)
+    job = bake_job.BakeJob([monkey, ground], settings)
     assert len(started) == 1 and seen == [True]
     report = job.run()
     assert report.rays_traced > 0
@@ -312,18 +334,20 @@ def test_first_object_traces_while_the_others_are_prepared(empty_scene, bpy_modu
         return real_points(mesh, *args)
 
     started.clear()
-    monkeypatch.setattr(mesh_io, "bake_points", failing_points)
+    monkeypatch.setattr(mesh_read, "bake_points", failing_points)
     before = {o.name: _attr_bytes(o.data) for o in (ground, monkey)}
     pools = []
-    monkeypatch.setattr(bake_ops, "ThreadPoolExecutor",
+    monkeypatch.setattr(bake_job, "ThreadPoolExecutor",
                         lambda *a, **k: pools.append(ThreadPoolExecutor(*a, **k)) or pools[-1])
     with pytest.raises(RuntimeError, match="injected"):
-        bake_ops.BakeJob([monkey, ground], settings)
+        bake_job.BakeJob([monkey, ground], settings)
     assert started and pools[0]._shutdown and all(not t.is_alive() for t in pools[0]._threads)
     assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
 
 
 def test_failing_bake_leaves_attributes_untouched(empty_scene, bpy_module, bake_ops, mesh_io, monkeypatch):
+    from prt_addon.blender.bake import reports as bake_reports
+    from prt_addon.blender import storage
     bpy = bpy_module
     ground, monkey = _monkey_on_ground(bpy)
     from prt_addon import api
@@ -340,7 +364,7 @@ def test_failing_bake_leaves_attributes_untouched(empty_scene, bpy_module, bake_
     assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
 
     # A failure while writing the second mesh: the first one is restored too.
-    real_write = mesh_io.write_transfer
+    real_write = storage.write_transfer
     calls = []
 
     def write_then_fail(mesh, *args):
@@ -349,20 +373,20 @@ def test_failing_bake_leaves_attributes_untouched(empty_scene, bpy_module, bake_
             raise RuntimeError("injected write failure")
         return real_write(mesh, *args)
 
-    monkeypatch.setattr(mesh_io, "write_transfer", write_then_fail)
+    monkeypatch.setattr(storage, "write_transfer", write_then_fail)
     with pytest.raises(RuntimeError, match="injected write"):
         api.bake([monkey, ground], order=4, samples=32)
     assert len(calls) == 2
     assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
 
     # The operator reports the failure and cancels.
-    monkeypatch.setattr(mesh_io, "write_transfer", lambda *a: (_ for _ in ()).throw(RuntimeError("boom")))
+    monkeypatch.setattr(storage, "write_transfer", lambda *a: (_ for _ in ()).throw(RuntimeError("boom")))
     for obj in (ground, monkey):
         obj.select_set(True)
     # In background mode bpy.ops turns an ERROR report into RuntimeError.
     with pytest.raises(RuntimeError, match="nothing was changed: boom"):
         bpy.ops.prt.bake_transfer()
-    assert "boom" in bake_ops.last_report(empty_scene)["message"]
+    assert "boom" in bake_reports.last_report(empty_scene)["message"]
     assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
 
 
@@ -406,26 +430,27 @@ def test_topology_edit_is_stale(empty_scene, bpy_module):
 
 def test_removed_or_converted_transfer_attribute_is_reported(empty_scene, bpy_module):
     """A user deleting or converting one prt_tKK attribute: the bake is stale (not 'fresh' with
-    garbage), the display does not draw it, and mesh_io.read_transfer returns None."""
+    garbage), the display does not draw it, and storage.read_transfer returns None."""
     bpy = bpy_module
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2)
     obj = bpy.context.object
     from prt_addon import api
-    from prt_addon.blender import display, mesh_io
+    from prt_addon.blender import storage
+    from prt_addon.blender.display import gpu_cache
 
     api.bake([obj], order=3, samples=32, shadows=False)  # 9 coefficients: prt_t00 .. prt_t02
     assert api.bake_status(obj) == "fresh"
-    info, problem = display.bake_status(obj.data)
+    info, problem = storage.usable_bake(obj.data)
     assert info.order == 3 and info.count == 3 and problem == ""
     elements = len(obj.data.loops) if info.domain == "CORNER" else len(obj.data.vertices)
-    assert display.read_transfer(obj.data, info).shape == (elements, 12)
-    assert mesh_io.read_transfer(obj.data).shape == (elements, 9)
+    assert gpu_cache.read_transfer(obj.data, info).shape == (elements, 12)
+    assert storage.read_transfer(obj.data).shape == (elements, 9)
 
     obj.data.attributes.remove(obj.data.attributes["prt_t01"])
     state, reason = api.bake_status(obj, reason=True)
     assert state == "stale" and "prt_t01" in reason
-    assert display.bake_status(obj.data) == (None, "attribute prt_t01 is missing or changed")
-    assert mesh_io.read_transfer(obj.data) is None
+    assert storage.usable_bake(obj.data) == (None, "attribute prt_t01 is missing or changed")
+    assert storage.read_transfer(obj.data) is None
 
     api.bake([obj], order=3, samples=32, shadows=False)
     assert api.bake_status(obj) == "fresh"
@@ -433,7 +458,7 @@ def test_removed_or_converted_transfer_attribute_is_reported(empty_scene, bpy_mo
     obj.data.attributes.remove(obj.data.attributes["prt_t02"])
     obj.data.attributes["prt_t02_tmp"].name = "prt_t02"  # same name, wrong type
     assert api.bake_status(obj) == "stale"
-    assert display.bake_status(obj.data)[0] is None
+    assert storage.usable_bake(obj.data)[0] is None
 
     api.bake([obj], order=3, samples=32, shadows=False)
     del obj.data["prt_bake"]["fingerprint"]
@@ -441,6 +466,7 @@ def test_removed_or_converted_transfer_attribute_is_reported(empty_scene, bpy_mo
 
 
 def _scene_values(bpy, mesh_io, factor):
+    from prt_addon.blender import storage
     bpy.ops.wm.read_factory_settings(use_empty=True)
     ground, monkey = _monkey_on_ground(bpy, ground_cuts=6)
     if factor != 1.0:
@@ -449,7 +475,7 @@ def _scene_values(bpy, mesh_io, factor):
 
     report = api.bake([monkey, ground], order=3, samples=128, seed=7)
     report.offset = monkey.data["prt_bake"]["offset"]
-    return mesh_io.read_transfer(monkey.data), mesh_io.read_transfer(ground.data), report
+    return storage.read_transfer(monkey.data), storage.read_transfer(ground.data), report
 
 
 def test_scene_scale_does_not_change_the_result(empty_scene, bpy_module, mesh_io):
@@ -466,6 +492,7 @@ def test_scene_scale_does_not_change_the_result(empty_scene, bpy_module, mesh_io
 
 
 def test_bad_inputs_give_clear_reports(empty_scene, bpy_module, bake_ops):
+    from prt_addon.blender.bake import reports as bake_reports
     bpy = bpy_module
     from prt_addon import api
 
@@ -493,11 +520,11 @@ def test_bad_inputs_give_clear_reports(empty_scene, bpy_module, bake_ops):
     bpy.ops.object.select_all(action="DESELECT")
     with pytest.raises(RuntimeError, match="nothing selected"):
         bpy.ops.prt.bake_transfer()
-    assert "nothing selected" in bake_ops.last_report(empty_scene)["message"]
+    assert "nothing selected" in bake_reports.last_report(empty_scene)["message"]
     empty.select_set(True)
     with pytest.raises(RuntimeError, match="not a mesh"):
         bpy.ops.prt.bake_transfer()
-    assert "not a mesh" in bake_ops.last_report(empty_scene)["message"]
+    assert "not a mesh" in bake_reports.last_report(empty_scene)["message"]
 
 
 def test_modifiers_deform_is_used_topology_change_is_refused(empty_scene, bpy_module, mesh_io):
@@ -543,9 +570,9 @@ def test_bad_seed_is_refused_before_any_ray(empty_scene, bpy_module, mesh_io, mo
     bpy.ops.mesh.primitive_plane_add()
     plane = bpy.context.object
     from prt_addon import api
-    from prt_addon.blender import bake_ops
+    from prt_addon.blender.bake import job as bake_job
 
-    monkeypatch.setattr(bake_ops.BakeJob, "steps", lambda *a, **k: pytest.fail("traced before validating"))
+    monkeypatch.setattr(bake_job.BakeJob, "steps", lambda *a, **k: pytest.fail("traced before validating"))
     for seed in (None, -1, 2.5):
         with pytest.raises(ValueError, match="seed must be an integer >= 0"):
             api.bake([plane], seed=seed)
@@ -555,6 +582,8 @@ def test_bad_seed_is_refused_before_any_ray(empty_scene, bpy_module, mesh_io, mo
 def test_bake_set_up_leaves_no_blas_thread_spinning(empty_scene, bpy_module, bake_ops):
     """Reading and transforming ~32k vertices (rotated and scaled) must not wake numpy's BLAS
     threads, whose spinning would take a core from the tracing threads (core.serial_blas)."""
+    from prt_addon.blender.bake import job as bake_job
+    from prt_addon.blender.bake import settings as bake_settings
     bpy = bpy_module
     bpy.ops.mesh.primitive_monkey_add(rotation=(0.3, 0.2, 0.1), scale=(1, 2, 3))
     monkey = bpy.context.object
@@ -566,9 +595,9 @@ def test_bake_set_up_leaves_no_blas_thread_spinning(empty_scene, bpy_module, bak
     if threaded < 3:
         pytest.skip(f"this numpy's BLAS does not spin after a threaded product ({threaded} ticks)")
     jobs = []
-    settings = bake_ops.BakeSettings(order=4, samples=64, threads=1, shadows=False)
+    settings = bake_settings.BakeSettings(order=4, samples=64, threads=1, shadows=False)
     try:
-        ticks = ticks_of_other_threads_after(lambda: jobs.append(bake_ops.BakeJob([monkey], settings)))
+        ticks = ticks_of_other_threads_after(lambda: jobs.append(bake_job.BakeJob([monkey], settings)))
     finally:
         for job in jobs:
             job.close()

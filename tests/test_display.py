@@ -51,7 +51,7 @@ def write_bake(obj, transfer, order, domain="POINT"):
 
 
 def fingerprint(mesh):
-    from prt_addon.blender.mesh_io import topology_fingerprint
+    from prt_addon.blender.mesh_read import topology_fingerprint
 
     return topology_fingerprint(mesh)
 
@@ -163,7 +163,7 @@ def sample_at_vertices(bpy, obj, scene, image):
 @pytest.fixture(scope="module")
 def gpu_ready(bpy_module, addon):
     """Initialise the GPU once for the module (a tiny Workbench render), before large meshes."""
-    from prt_addon.blender import offscreen
+    from prt_addon.blender.display import offscreen
 
     assert offscreen.ensure_gpu()
     return True
@@ -178,9 +178,9 @@ def lit_scene(bpy_module, empty_scene, gpu_ready):
 
 
 def set_light(scene, light):
-    from prt_addon.blender import display
+    from prt_addon.blender.display import lighting
 
-    display.set_light_override(scene, light)
+    lighting.set_light_override(scene, light)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -190,13 +190,14 @@ def set_light(scene, light):
 
 @pytest.mark.parametrize("order", [1, 2, 3, 4, 7, 8, 12, 16])
 def test_shader_compiles_for_every_order(gpu_ready, order):
-    from prt_addon.blender import display
+    from prt_addon.blender import storage
+    from prt_addon.blender.display import shader as display_shader
 
-    count = display.attribute_count(order)
-    shader = display.get_shader(count)
+    count = storage.attribute_count(order)
+    shader = display_shader.get_shader(count)
     assert shader is not None
     # Orders 1..7 fit in vertex attributes (pos + albedo + 14); 8 and up use the texture path.
-    assert display.shader_mode(count) == ("ATTR" if order <= 7 else "TEXTURE")
+    assert display_shader.shader_mode(count) == ("ATTR" if order <= 7 else "TEXTURE")
 
 
 def test_shade_matches_world_frame_expectation(bpy_module, lit_scene):
@@ -284,7 +285,7 @@ def _bright_side(values, normals, axis):
 
 def test_lighting_rotation_180_moves_bright_side(bpy_module, lit_scene):
     import prt_addon.api as api
-    from prt_addon.blender import display
+    from prt_addon.blender.world import nodes as world_nodes
 
     order = 4
     obj = bake_sphere(bpy_module, order)
@@ -297,7 +298,7 @@ def test_lighting_rotation_180_moves_bright_side(bpy_module, lit_scene):
     assert _bright_side(before, normals, (1, 0, 0)) > 0.5  # the sun is along +X
 
     assert bpy_module.ops.prt.set_light_rotation(rotation=(0.0, 0.0, math.pi)) == {"FINISHED"}
-    mapping = display.find_mapping_node(lit_scene.world)
+    mapping = world_nodes.find_mapping_node(lit_scene.world)
     assert mapping is not None  # the sidebar operator created the world's Mapping node
     assert tuple(mapping.inputs["Rotation"].default_value) == pytest.approx((0.0, 0.0, math.pi))
     after = api.shade(obj, lit_scene)
@@ -322,14 +323,14 @@ def test_editing_mapping_node_directly_updates_display(bpy_module, lit_scene):
     """POINT Mapping +90 deg about Z: the world is image(R d), so the +X sun appears at -Y
     (docs/world.md, measured against Cycles)."""
     import prt_addon.api as api
-    from prt_addon.blender import display
+    from prt_addon.blender.world import nodes as world_nodes
 
     order = 4
     obj = bake_sphere(bpy_module, order)
     set_light(lit_scene, sun_sky_light(order))
-    node = display.ensure_mapping_node(lit_scene.world)
+    node = world_nodes.ensure_mapping_node(lit_scene.world)
     node.inputs["Rotation"].default_value = (0.0, 0.0, math.pi / 2)
-    assert display.mapping_rotation_euler(lit_scene.world) == pytest.approx((0.0, 0.0, math.pi / 2))
+    assert world_nodes.mapping_rotation_euler(lit_scene.world) == pytest.approx((0.0, 0.0, math.pi / 2))
     normals = local_positions(obj.data)
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     values = api.shade(obj, lit_scene)
@@ -512,11 +513,11 @@ def test_modifier_that_reorders_vertices_draws_the_undeformed_mesh(bpy_module, l
 
 
 def test_world_projection_seam(bpy_module, lit_scene):
-    """With no override the display reads world.current_world_coeffs (issue 3): a constant
+    """With no override the display reads world_projection.current_world_coeffs (issue 3): a constant
     colour world c lights an unshadowed sphere to radiance c everywhere (white furnace)."""
-    world_mod = pytest.importorskip("prt_addon.blender.world")
+    from prt_addon.blender.world import projection as world_projection
     import prt_addon.api as api
-    from prt_addon.blender import display
+    from prt_addon.blender.display import lighting
 
     world = bpy_module.data.worlds.new("Const")
     with warnings.catch_warnings():
@@ -525,15 +526,16 @@ def test_world_projection_seam(bpy_module, lit_scene):
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.3, 0.5, 0.7, 1.0)
     world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
     lit_scene.world = world
-    display.set_light_override(lit_scene, None)
-    world_mod.project_and_store(lit_scene, 3)
+    lighting.set_light_override(lit_scene, None)
+    world_projection.project_and_store(lit_scene, 3)
     obj = bake_sphere(bpy_module, 3, segments=16, rings=8)
     np.testing.assert_allclose(api.shade(obj, lit_scene), np.tile([0.3, 0.5, 0.7], (len(obj.data.vertices), 1)), rtol=1e-3)
 
 
 def test_handler_removed_on_unregister_and_file_load(bpy_module, addon, gpu_ready, tmp_path):
     import prt_addon
-    from prt_addon.blender import display
+    from prt_addon.blender.display import handlers
+    from prt_addon.blender.display import draw as display_draw
 
     def removable(handle):
         try:
@@ -542,32 +544,33 @@ def test_handler_removed_on_unregister_and_file_load(bpy_module, addon, gpu_read
             return False
         return True
 
-    handle = display.draw_handle()
+    handle = display_draw.draw_handle()
     assert handle is not None
     prt_addon.unregister()
-    assert display.draw_handle() is None
+    assert display_draw.draw_handle() is None
     assert not removable(handle)  # Blender no longer knows the callback
     for name in ("load_pre", "load_post", "depsgraph_update_post"):
-        assert not any(getattr(f, "__module__", "") == display.__name__ for f in getattr(bpy_module.app.handlers, name))
+        assert not any(getattr(f, "__module__", "") == handlers.__name__ for f in getattr(bpy_module.app.handlers, name))
 
     prt_addon.register()
-    first = display.draw_handle()
+    first = display_draw.draw_handle()
     assert first is not None
     path = str(tmp_path / "empty.blend")
     bpy_module.ops.wm.save_as_mainfile(filepath=path)
     bpy_module.ops.wm.open_mainfile(filepath=path)
-    second = display.draw_handle()
+    second = display_draw.draw_handle()
     assert second is not None and second is not first
     assert not removable(first)  # removed before the file loaded
     # Exactly one live handler: the new one (removing it here, then restoring it).
     assert removable(second)
-    display._draw_handle = None
-    display.add_draw_handler()
+    display_draw._draw_handle = None
+    display_draw.add_draw_handler()
 
 
 def test_save_reload_displays_from_stored_attributes(bpy_module, lit_scene, tmp_path):
     import prt_addon.api as api
-    from prt_addon.blender import display
+    from prt_addon.blender.display import gpu_cache
+    from prt_addon.blender.world import nodes as world_nodes
 
     order = 8  # texture path; the attributes path is covered by the other tests
     obj = bake_sphere(bpy_module, order, segments=32, rings=16)
@@ -582,11 +585,11 @@ def test_save_reload_displays_from_stored_attributes(bpy_module, lit_scene, tmp_
     bpy_module.ops.wm.save_as_mainfile(filepath=path)
 
     bpy_module.ops.wm.read_factory_settings(use_empty=True)
-    assert display._mesh_cache == {}
+    assert gpu_cache._mesh_cache == {}
     bpy_module.ops.wm.open_mainfile(filepath=path)
     scene = bpy_module.context.scene
-    assert display._mesh_cache == {}  # nothing carried over: the display reads the file's data
-    assert display.mapping_rotation_euler(scene.world)[2] == pytest.approx(1.0)
+    assert gpu_cache._mesh_cache == {}  # nothing carried over: the display reads the file's data
+    assert world_nodes.mapping_rotation_euler(scene.world)[2] == pytest.approx(1.0)
     set_light(scene, light)  # the injected light is not saved (a projected world is, by issue 3)
     obj = bpy_module.data.objects["Sphere"]
     np.testing.assert_allclose(api.shade(obj, scene), shade_before, rtol=1e-6, atol=1e-7)
@@ -662,7 +665,8 @@ def test_viewport_callback_draws_with_exposure_and_toggle(bpy_module, lit_scene,
     import gpu
     import mathutils
     import prt_addon.api as api
-    from prt_addon.blender import display, offscreen
+    from prt_addon.blender.display import draw as display_draw
+    from prt_addon.blender.display import offscreen
 
     obj = bake_sphere(bpy_module, 4, segments=32, rings=16)
     set_light(lit_scene, sun_sky_light(4))
@@ -676,14 +680,14 @@ def test_viewport_callback_draws_with_exposure_and_toggle(bpy_module, lit_scene,
         space_data=None,
         evaluated_depsgraph_get=bpy_module.context.evaluated_depsgraph_get,
     )
-    monkeypatch.setattr(display, "bpy", types.SimpleNamespace(context=context, types=bpy_module.types))
+    monkeypatch.setattr(display_draw, "bpy", types.SimpleNamespace(context=context, types=bpy_module.types))
 
     def viewport_frame():
         off = gpu.types.GPUOffScreen(128, 128, format="RGBA32F")
         with off.bind():
             fb = gpu.state.active_framebuffer_get()
             fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
-            display._draw_callback()
+            display_draw._draw_callback()
             img = np.asarray(fb.read_color(0, 0, 128, 128, 4, 0, "FLOAT")).T.reshape(128, 128, 4)[::-1].copy()
         off.free()
         return img

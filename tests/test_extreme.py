@@ -65,11 +65,11 @@ def shade_white(bpy, scene, objs, order):
 def test_order_one_and_largest_order(empty_scene, bpy_module, order):
     """Order 1 and the operator's maximum (16): bake + shade a small plane under a box."""
     from prt_addon import api
-    from prt_addon.blender import bake_ops
+    from prt_addon.blender.bake import settings as bake_settings
 
     bpy = bpy_module
     assert hasattr(bpy.types, "PRT_OT_bake_transfer")
-    assert bake_ops.MAX_ORDER == 16
+    assert bake_settings.MAX_ORDER == 16
     plane = mesh_object(bpy, empty_scene, "plane", *grid(6, 2.0))
     box_v = [(x, y, z) for x in (-0.3, 0.3) for y in (-0.3, 0.3) for z in (0.5, 1.1)]
     box = mesh_object(bpy, empty_scene, "box", box_v,
@@ -96,13 +96,14 @@ def test_order_one_and_largest_order(empty_scene, bpy_module, order):
 def test_unoccluded_point_at_order_16_is_the_clamped_cosine(empty_scene, bpy_module):
     """A lone plane (nothing occludes it) at order 16: transfer = clamped cosine coefficients."""
     from prt_addon import api
-    from prt_addon.blender import display
+    from prt_addon.blender import storage
+    from prt_addon.blender.display import gpu_cache
 
     bpy = bpy_module
     plane = mesh_object(bpy, empty_scene, "plane", *grid(3))
     api.bake([plane], order=16, samples=8192)
-    info, _ = display.bake_status(plane.data)
-    t = display.read_transfer(plane.data, info)[:, :256].astype(np.float64)
+    info, _ = storage.usable_bake(plane.data)
+    t = gpu_cache.read_transfer(plane.data, info)[:, :256].astype(np.float64)
     expected = analytic.clamped_cosine_coeffs(16, (0.0, 0.0, 1.0))  # includes the 1 / pi
     assert np.all(np.isfinite(t))
     np.testing.assert_allclose(t, np.broadcast_to(expected, t.shape), atol=3e-3)
@@ -356,7 +357,6 @@ def test_error_estimate_within_a_factor_of_two_on_a_reference_scene(empty_scene,
     error_calibration) against the measured RMS |t - t_conv| on Suzanne subdivided once on a ground
     grid, as in docs/accuracy.md: within a factor of 2 either way."""
     from prt_addon import api
-    from prt_addon.blender import display
 
     bpy = bpy_module
     import bmesh
@@ -375,10 +375,12 @@ def test_error_estimate_within_a_factor_of_two_on_a_reference_scene(empty_scene,
     objs = [monkey, suzanne]
 
     def transfer():
+        from prt_addon.blender.display import gpu_cache
+        from prt_addon.blender import storage
         out = []
         for o in objs:
-            info, _ = display.bake_status(o.data)
-            out.append(display.read_transfer(o.data, info)[:, : info.order**2].astype(np.float64))
+            info, _ = storage.usable_bake(o.data)
+            out.append(gpu_cache.read_transfer(o.data, info)[:, : info.order**2].astype(np.float64))
         return np.concatenate(out)
 
     api.bake(objs, order=8, samples=16384)

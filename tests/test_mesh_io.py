@@ -9,7 +9,6 @@ pytestmark = pytest.mark.blender
 
 @pytest.fixture
 def mesh_io(addon):
-    from prt_addon.blender import mesh_io
 
     return mesh_io
 
@@ -31,9 +30,10 @@ def _mesh(bpy, name, vertices, faces):
 
 def _flips(mesh_io, mesh):
     """Per quad of the mesh: whether Blender's first split (0-2 diagonal) was replaced."""
+    from prt_addon.blender import mesh_read
     triangles = _loop_triangles(mesh)
-    corner_verts = mesh_io.read_corner_verts(mesh)
-    starts = mesh_io.read_face_starts(mesh)
+    corner_verts = mesh_read.read_corner_verts(mesh)
+    starts = mesh_read.read_face_starts(mesh)
     sizes = np.diff(starts, append=len(corner_verts))
     first = np.cumsum(sizes - 2) - (sizes - 2)
     quads = np.flatnonzero(sizes == 4)
@@ -44,6 +44,7 @@ def test_read_triangles_matches_loop_triangles_on_quads_and_triangles(empty_scen
     """Random non-planar quads (about half of them take Blender's flipped split), darts concave
     at either corner, degenerate quads (a repeated point, collinear points, all one point) and
     triangles, mixed in one mesh: the same triangles in the same order as mesh.loop_triangles."""
+    from prt_addon.blender import mesh_read
     bpy = bpy_module
     rng = np.random.default_rng(7)
     vertices, faces = [], []
@@ -63,12 +64,12 @@ def test_read_triangles_matches_loop_triangles_on_quads_and_triangles(empty_scen
     mesh = _mesh(bpy, "mixed", vertices, faces)
     flips = _flips(mesh_io, mesh)
     assert 0.2 < flips.mean() < 0.8 and flips[-5:-3].all()  # both splits are exercised
-    np.testing.assert_array_equal(mesh_io.read_triangles(mesh), _loop_triangles(mesh))
+    np.testing.assert_array_equal(mesh_read.read_triangles(mesh), _loop_triangles(mesh))
 
     # Shared vertices: a subdivided, noisy grid (quads only) and a subdivided Suzanne.
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=30, y_subdivisions=20)
     grid = bpy.context.object.data
-    co = mesh_io.read_positions(grid) + rng.normal(0, 0.2, (len(grid.vertices), 3)).astype(np.float32)
+    co = mesh_read.read_positions(grid) + rng.normal(0, 0.2, (len(grid.vertices), 3)).astype(np.float32)
     grid.attributes["position"].data.foreach_set("vector", co.ravel())
     grid.update()
     bpy.ops.mesh.primitive_monkey_add()
@@ -77,34 +78,36 @@ def test_read_triangles_matches_loop_triangles_on_quads_and_triangles(empty_scen
     bpy.ops.object.modifier_apply(modifier="s")
     assert _flips(mesh_io, grid).any()  # (Suzanne has none)
     for shape in (grid, monkey.data):
-        np.testing.assert_array_equal(mesh_io.read_triangles(shape), _loop_triangles(shape))
+        np.testing.assert_array_equal(mesh_read.read_triangles(shape), _loop_triangles(shape))
 
 
 def test_read_triangles_with_ngons_and_without_faces(empty_scene, bpy_module, mesh_io):
     """N-gons (here a concave hexagon and a cylinder's caps) are read from loop_triangles; a mesh
     without faces has no triangles."""
+    from prt_addon.blender import mesh_read
     bpy = bpy_module
     hexagon = [(0, 0, 0), (2, 0, 0), (2, 2, 0), (1, 0.5, 0), (0, 2, 0), (-0.5, 1, 0)]
     mesh = _mesh(bpy, "ngon", hexagon + [(0, 0, 1), (1, 0, 1), (0, 1, 1)], [range(6), (6, 7, 8)])
-    np.testing.assert_array_equal(mesh_io.read_triangles(mesh), _loop_triangles(mesh))
-    assert len(mesh_io.read_triangles(mesh)) == 5
+    np.testing.assert_array_equal(mesh_read.read_triangles(mesh), _loop_triangles(mesh))
+    assert len(mesh_read.read_triangles(mesh)) == 5
     bpy.ops.mesh.primitive_cylinder_add(vertices=12)
     cylinder = bpy.context.object.data
-    np.testing.assert_array_equal(mesh_io.read_triangles(cylinder), _loop_triangles(cylinder))
+    np.testing.assert_array_equal(mesh_read.read_triangles(cylinder), _loop_triangles(cylinder))
     points = _mesh(bpy, "points", [(0, 0, 0), (1, 0, 0)], [])
-    assert mesh_io.read_triangles(points).shape == (0, 3)
+    assert mesh_read.read_triangles(points).shape == (0, 3)
 
 
 def test_flat_grid_with_rounded_normals_bakes_per_vertex(empty_scene, bpy_module, mesh_io):
     """A flat-shaded grid's face normals come out as (0, 0, 1) or (0, 0, 0.99999994) depending
     on the face; still one normal per vertex, so one bake point per vertex (POINT)."""
+    from prt_addon.blender import mesh_read
     bpy = bpy_module
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=150, y_subdivisions=150, size=8)
     mesh = bpy.context.object.data
     assert mesh.normals_domain != "POINT"
-    normals = mesh_io.read_corner_normals(mesh)
+    normals = mesh_read.read_corner_normals(mesh)
     assert len(np.unique(normals, axis=0)) > 1  # not bit-identical: the case under test
-    points = mesh_io.bake_points(mesh, np.eye(4))
+    points = mesh_read.bake_points(mesh, np.eye(4))
     assert points.domain == "POINT" and len(points.positions) == len(mesh.vertices)
     np.testing.assert_allclose(points.normals, np.tile([0.0, 0.0, 1.0], (len(mesh.vertices), 1)),
                                atol=1e-6)
@@ -113,18 +116,19 @@ def test_flat_grid_with_rounded_normals_bakes_per_vertex(empty_scene, bpy_module
 def test_vertex_normal_pairs_merges_only_within_tolerance(mesh_io):
     """Corner normals of one vertex within NORMAL_TOLERANCE are one pair; farther ones, and the
     same normal at another vertex, stay separate; inverse maps each corner to its pair."""
-    tol = mesh_io.NORMAL_TOLERANCE
+    from prt_addon.core import mesh as core_mesh
+    tol = core_mesh.NORMAL_TOLERANCE
     up = np.array([0.0, 0.0, 1.0], np.float32)
     tilted = np.array([0.0, 3 * tol, 1.0], np.float32)
     nudged = np.array([0.0, 0.3 * tol, 1.0], np.float32)
     corner_verts = np.array([2, 2, 0, 1, 0, 1], np.int32)
     normals = np.array([up, nudged, up, tilted, up, up])
-    vert, pair_normals, inverse = mesh_io.vertex_normal_pairs(corner_verts, normals, 4)
+    vert, pair_normals, inverse = core_mesh.vertex_normal_pairs(corner_verts, normals, 4)
     np.testing.assert_array_equal(vert, [0, 1, 1, 2])  # vertex 3 has no corner
     np.testing.assert_array_equal(vert[inverse], corner_verts)
     np.testing.assert_allclose(pair_normals[inverse], normals, atol=tol)
     assert inverse[3] != inverse[5]  # tilted stays its own pair
     # All corners within tolerance: one pair per vertex that has corners, in vertex order.
-    vert, pair_normals, inverse = mesh_io.vertex_normal_pairs(corner_verts[:3], normals[:3], 3)
+    vert, pair_normals, inverse = core_mesh.vertex_normal_pairs(corner_verts[:3], normals[:3], 3)
     np.testing.assert_array_equal(vert, [0, 2])
     np.testing.assert_array_equal(inverse, [1, 1, 0])

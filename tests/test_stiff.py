@@ -72,7 +72,8 @@ def _check(objs, scene, order):
     """Shade at `order` (lighting projected at that order, transfer truncated by the display):
     finite and >= 0. Returns the unclamped minimum over the mean (to show the clamp matters)."""
     from prt_addon import api
-    from prt_addon.blender import mesh_io, world
+    from prt_addon.blender import storage
+    from prt_addon.blender.world import projection as world_projection
 
     api.project_world(scene, order)
     lowest = 0.0
@@ -82,8 +83,8 @@ def _check(objs, scene, order):
         # Independent of the display code: the bake's own reader times the stored world lighting
         # (the objects are untransformed, so their local frame is the world frame).
         np.testing.assert_allclose(np.array(obj.matrix_world), np.eye(4), atol=1e-12)
-        transfer = mesh_io.read_transfer(obj.data).astype(np.float64)
-        raw = transfer[:, : order * order] @ world.current_world_coeffs(scene)[: order * order]
+        transfer = storage.read_transfer(obj.data).astype(np.float64)
+        raw = transfer[:, : order * order] @ world_projection.current_world_coeffs(scene)[: order * order]
         assert np.all(np.isfinite(raw))
         scale = np.abs(raw).max()
         np.testing.assert_allclose(r, np.maximum(raw, 0.0), rtol=1e-5, atol=1e-6 * scale)  # no window: clamp only

@@ -205,9 +205,9 @@ def test_mapping_rotation_matches_projecting_a_rotated_image(bpy_module, empty_s
     settings = empty_scene.prt_world
     assert settings.mapping_node and settings.mapping_type == vector_type
     # The stored coefficients are the unrotated ones.
-    from prt_addon.blender import world
+    from prt_addon.blender.world import projection as world_projection
 
-    np.testing.assert_allclose(world.stored_image_coeffs(empty_scene), c, atol=4e-4 * scale)
+    np.testing.assert_allclose(world_projection.stored_image_coeffs(empty_scene), c, atol=4e-4 * scale)
     # The inverse rotation is rejected by the same tolerance.
     wrong = project_image(bpy_module, empty_scene, image_of(c, height, width, lookup.T), 6)
     assert np.abs(out - wrong).max() > 20 * 4e-4 * scale
@@ -215,9 +215,9 @@ def test_mapping_rotation_matches_projecting_a_rotated_image(bpy_module, empty_s
 
 def test_current_world_coeffs_follow_the_mapping_without_reprojecting(bpy_module, empty_scene):
     from prt_addon import api
-    from prt_addon.blender import world as world_mod
+    from prt_addon.blender.world import projection as world_projection
 
-    assert world_mod.current_world_coeffs(empty_scene) is None
+    assert world_projection.current_world_coeffs(empty_scene) is None
     c = known_coeffs(5)
     world = new_world(bpy_module, empty_scene)
     env = use_image(world, float_image(bpy_module, "img", image_of(c, 64, 128)))
@@ -225,32 +225,32 @@ def test_current_world_coeffs_follow_the_mapping_without_reprojecting(bpy_module
     first = api.project_world(empty_scene, 5)
     np.testing.assert_allclose(api.world_lighting(empty_scene), first, atol=1e-12)
     token = empty_scene.prt_world.token
-    stored = np.array(empty_scene[world_mod.SH_KEY])
+    stored = np.array(empty_scene[world_projection.SH_KEY])
 
     mapping.inputs["Rotation"].default_value = (0.3, -0.2, 1.7)
-    live = world_mod.current_world_coeffs(empty_scene)
+    live = world_projection.current_world_coeffs(empty_scene)
     assert empty_scene.prt_world.token == token  # nothing was projected again
-    np.testing.assert_array_equal(np.array(empty_scene[world_mod.SH_KEY]), stored)
+    np.testing.assert_array_equal(np.array(empty_scene[world_projection.SH_KEY]), stored)
     # Same as a full projection with the new rotation.
     np.testing.assert_allclose(live, api.project_world(empty_scene, 5), atol=1e-10)
     assert np.abs(live - first).max() > 0.1
 
 
 def test_mapping_location_or_non_uniform_scale_is_not_ignored(bpy_module, empty_scene):
-    from prt_addon.blender import world as world_mod
+    from prt_addon.blender.world import nodes as world_nodes
 
     world = new_world(bpy_module, empty_scene)
     env = use_image(world, float_image(bpy_module, "img", np.ones((8, 16, 3))))
     mapping = add_mapping(world, env, euler=(0, 0, 1.0))
     mapping.inputs["Scale"].default_value = (2.0, 2.0, 2.0)  # uniform: no effect (normalised)
-    assert world_mod.analyse_world(empty_scene).kind == "IMAGE"
+    assert world_nodes.analyse_world(empty_scene).kind == "IMAGE"
     mapping.inputs["Location"].default_value = (0.0, 0.5, 0.0)
-    source = world_mod.analyse_world(empty_scene)
+    source = world_nodes.analyse_world(empty_scene)
     assert source.kind == "RENDER" and "location" in source.reason
     mapping.vector_type = "VECTOR"  # a vector mapping ignores location
-    assert world_mod.analyse_world(empty_scene).kind == "IMAGE"
+    assert world_nodes.analyse_world(empty_scene).kind == "IMAGE"
     mapping.inputs["Scale"].default_value = (1.0, 1.0, -1.0)
-    source = world_mod.analyse_world(empty_scene)
+    source = world_nodes.analyse_world(empty_scene)
     assert source.kind == "RENDER" and "scale" in source.reason
 
 
@@ -306,7 +306,7 @@ def test_packed_and_saved_exr_images(bpy_module, empty_scene, tmp_path):
 
 
 def test_bad_pixels_are_repaired_and_reported(bpy_module, empty_scene):
-    from prt_addon.blender import world as world_mod
+    from prt_addon.blender.world import projection as world_projection
 
     rgb = np.full((16, 32, 3), 2.0)
     rgb[3, 5] = (np.nan, 1.0, 1.0)
@@ -314,7 +314,7 @@ def test_bad_pixels_are_repaired_and_reported(bpy_module, empty_scene):
     rgb[10, 30] = (-5.0, 2.0, 2.0)
     world = new_world(bpy_module, empty_scene)
     use_image(world, float_image(bpy_module, "bad", rgb))
-    result = world_mod.project(empty_scene, 3)
+    result = world_projection.project(empty_scene, 3)
     repaired = np.nan_to_num(rgb, nan=0.0, posinf=0.0, neginf=0.0).clip(0.0, None)
     expected, _ = projection.project_equirect(repaired, 3)
     np.testing.assert_allclose(result.coeffs, expected, rtol=1e-6, atol=1e-9)
@@ -325,7 +325,7 @@ def test_bad_pixels_are_repaired_and_reported(bpy_module, empty_scene):
 def test_large_image_memory_is_bounded(bpy_module, empty_scene):
     """8192x4096 RGBA float: the reduction reads ROW_BLOCK rows at a time, so the numpy peak is
     the one float32 read buffer (512 MiB, which foreach_get needs) plus a few MiB."""
-    from prt_addon.blender import world as world_mod
+    from prt_addon.blender.world import projection as world_projection
 
     world = new_world(bpy_module, empty_scene)
     image = bpy_module.data.images.new("big", 8192, 4096, float_buffer=True)
@@ -338,7 +338,7 @@ def test_large_image_memory_is_bounded(bpy_module, empty_scene):
     buffer_bytes = 8192 * 4096 * 4 * 4
     tracemalloc.start()
     try:
-        result = world_mod.project(empty_scene, 8)
+        result = world_projection.project(empty_scene, 8)
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
@@ -419,7 +419,7 @@ def test_failed_projection_leaves_stored_lighting_untouched(bpy_module, empty_sc
 
 def test_projection_is_saved_with_the_blend_file(bpy_module, empty_scene, tmp_path):
     from prt_addon import api
-    from prt_addon.blender import world as world_mod
+    from prt_addon.blender.world import projection as world_projection
 
     c = known_coeffs(4)
     world = new_world(bpy_module, empty_scene)
@@ -438,5 +438,5 @@ def test_projection_is_saved_with_the_blend_file(bpy_module, empty_scene, tmp_pa
     assert settings.stored_order == 4 and settings.source_kind == "IMAGE"
     assert settings.image_name == "img" and tuple(settings.image_size) == (64, 32)
     assert settings.seconds > 0.0 and 0.0 <= settings.truncation < 1.0
-    assert len(scene[world_mod.SH_KEY]) == 16 * 3 and len(scene[world_mod.SH_WORLD_KEY]) == 16 * 3
-    np.testing.assert_allclose(world_mod.current_world_coeffs(scene), expected, atol=1e-12)
+    assert len(scene[world_projection.SH_KEY]) == 16 * 3 and len(scene[world_projection.SH_WORLD_KEY]) == 16 * 3
+    np.testing.assert_allclose(world_projection.current_world_coeffs(scene), expected, atol=1e-12)

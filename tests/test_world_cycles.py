@@ -164,13 +164,13 @@ def test_live_rotation_agrees_with_cycles(bpy_module, empty_scene):
     """Project once, then turn the Mapping node: current_world_coeffs (no new projection) must
     match a Cycles bake with the new rotation."""
     from prt_addon import api
-    from prt_addon.blender import world as world_mod
+    from prt_addon.blender.world import projection as world_projection
 
     world, env = hdri_world(bpy_module, empty_scene, "courtyard", (0.0, 0.0, 0.0))
     api.project_world(empty_scene, 8)
     mapping = world.node_tree.nodes["Mapping"]
     mapping.inputs["Rotation"].default_value = (math.radians(-40.0), 0.0, math.radians(75.0))
-    coeffs = world_mod.current_world_coeffs(empty_scene)
+    coeffs = world_projection.current_world_coeffs(empty_scene)
     obj = add_sphere(bpy_module, empty_scene)
     normals, baked = bake_sphere(bpy_module, empty_scene, obj)
     check_against_cycles(bpy_module, empty_scene, coeffs, normals, baked)
@@ -206,11 +206,11 @@ def test_render_fallback_matches_direct_projection(bpy_module, empty_scene):
     same lighting as the direct path: measured 0.08 % of the norm of the cosine-filtered
     coefficients at order 8 (0.2 % unfiltered); allowed 2 %. The bilinear lookup and 16 samples
     per pixel explain the difference."""
-    from prt_addon.blender import world as world_mod
+    from prt_addon.blender.world import projection as world_projection
 
     hdri_world(bpy_module, empty_scene, "forest", (0.0, 30.0, 60.0))
-    direct = world_mod.project(empty_scene, 8)
-    rendered = world_mod.project(empty_scene, 8, force_render=True)
+    direct = world_projection.project(empty_scene, 8)
+    rendered = world_projection.project(empty_scene, 8, force_render=True)
     assert direct.source.kind == "IMAGE" and rendered.source.kind == "RENDER"
     np.testing.assert_allclose(rendered.rotation, np.eye(3))  # the render already holds it
     zonal = analytic.clamped_cosine_zonal(8)[sh.band_of_index(8)][:, None]
@@ -221,7 +221,7 @@ def test_render_fallback_matches_direct_projection(bpy_module, empty_scene):
 def test_8bit_srgb_direct_conversion_matches_cycles(bpy_module, empty_scene):
     """8-bit sRGB pixels converted by our table of Blender's own conversion equal what Cycles
     renders from them; an 8-bit image in a colour space without a table is rendered."""
-    from prt_addon.blender import world as world_mod
+    from prt_addon.blender.world import projection as world_projection
 
     world = bpy_module.data.worlds.new("World")
     if world.node_tree is None:  # Blender 4.x: new worlds have no nodes
@@ -236,8 +236,8 @@ def test_8bit_srgb_direct_conversion_matches_cycles(bpy_module, empty_scene):
     env.image = image
     env.interpolation = "Closest"
     world.node_tree.links.new(env.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
-    direct = world_mod.project(empty_scene, 4)
-    rendered = world_mod.project(empty_scene, 4, force_render=True)
+    direct = world_projection.project(empty_scene, 4)
+    rendered = world_projection.project(empty_scene, 4, force_render=True)
     assert direct.source.kind == "IMAGE"
     np.testing.assert_allclose(rendered.coeffs, direct.coeffs, atol=5e-3 * np.abs(direct.coeffs).max())
 

@@ -1,23 +1,23 @@
 """The one place where the add-on's classes, properties and handlers are registered.
 
-Each UI module exposes `CLASSES` (registered in order, unregistered in reverse) and may expose
-`register_extra()` / `unregister_extra()` for pointer properties, handlers and timers.
+Each module listed exposes `CLASSES` (registered in order, unregistered in reverse) and may
+expose `register_extra()` / `unregister_extra()` for pointer properties, handlers and timers.
 Registration is idempotent: register(), unregister(), register() again works in one process,
 and a second register() without unregister() first unregisters what is there.
 """
 
 import bpy
 
-from . import bake_ops, display_ops, panels, properties, world_ops
+from .bake import runner
+from .display import handlers
+from .ops import bake as bake_ops
+from .ops import display as display_ops
+from .ops import world as world_ops
+from .ui import panels, properties
 
-# Order matters: property groups before the panels and operators that use them.
-MODULES = [
-    properties,
-    panels,
-    world_ops,
-    bake_ops,
-    display_ops,
-]
+# Order matters: property groups before the operators and panels that use them; the display's
+# handlers after the properties they read; running bakes are stopped before anything goes.
+MODULES = [properties, world_ops, bake_ops, display_ops, panels, handlers, runner]
 
 _registered = []
 

@@ -1,7 +1,7 @@
 """Render the camera view with the PRT shader offscreen to a numpy image, and save it as PNG.
 
 `render_view` draws the same batches with the same shader and light buffers as the viewport draw
-handler (display.draw_objects), into an RGBA32F GPUOffScreen with its own depth buffer. It draws
+handler (draw_objects), into an RGBA32F GPUOffScreen with its own depth buffer. It draws
 baked objects only; the background is transparent (alpha 0). The result is linear scene radiance
 times albedo (no exposure, no view transform), row 0 at the top of the picture.
 """
@@ -10,7 +10,8 @@ import bpy
 import gpu
 import numpy as np
 
-from . import display
+from ..world import nodes
+from .draw import baked_objects, draw_objects
 
 
 def gpu_ready():
@@ -71,7 +72,7 @@ def render_view(scene=None, width=None, height=None, camera=None, objects=None, 
     """(H, W, 4) float32 linear image of the baked objects seen by the camera, top row first.
 
     width/height default to the scene's render size; objects default to the visible baked
-    objects of the first view layer; scale multiplies the radiance (e.g. display.exposure_scale).
+    objects of the first view layer; scale multiplies the radiance (e.g. lighting.exposure_scale).
     """
     scene = scene or bpy.context.scene
     if width is None or height is None:
@@ -83,7 +84,7 @@ def render_view(scene=None, width=None, height=None, camera=None, objects=None, 
     depsgraph = bpy.context.evaluated_depsgraph_get() if scene == bpy.context.scene else None
     if objects is None:
         view_layer = bpy.context.view_layer if scene == bpy.context.scene else scene.view_layers[0]
-        objects = display.baked_objects(scene, view_layer)
+        objects = baked_objects(scene, view_layer)
     offscreen = gpu.types.GPUOffScreen(width, height, format="RGBA32F")
     try:
         with offscreen.bind():
@@ -92,7 +93,7 @@ def render_view(scene=None, width=None, height=None, camera=None, objects=None, 
             gpu.state.depth_test_set("LESS_EQUAL")
             gpu.state.depth_mask_set(True)
             try:
-                display.draw_objects(scene, projection @ view, objects, scale=scale, depsgraph=depsgraph)
+                draw_objects(scene, projection @ view, objects, scale=scale, depsgraph=depsgraph)
             finally:
                 gpu.state.depth_test_set("NONE")
             buf = fb.read_color(0, 0, width, height, 4, 0, "FLOAT")
@@ -137,16 +138,16 @@ def render_rotations(scene, angles_deg, path_pattern, width=None, height=None, b
     """Render the PRT view at several lighting rotations about Z (through the world's Mapping
     node, as the sidebar does) and save each as PNG; path_pattern gets the angle ("{:03d}").
     The Mapping rotation is restored afterwards. Returns the list of paths."""
-    old = display.mapping_rotation_euler(scene.world)
+    old = nodes.mapping_rotation_euler(scene.world)
     paths = []
     try:
         for angle in angles_deg:
             rot = (old[0], old[1], np.radians(angle))
-            if not display.set_mapping_rotation_euler(scene.world, rot):
+            if not nodes.set_mapping_rotation_euler(scene.world, rot):
                 raise ValueError("the world has no Environment Texture to rotate")
             image = render_view(scene, width, height)
             paths.append(save_png(image, path_pattern.format(int(round(angle))), scene, background))
     finally:
-        if display.find_mapping_node(scene.world) is not None:
-            display.set_mapping_rotation_euler(scene.world, old)
+        if nodes.find_mapping_node(scene.world) is not None:
+            nodes.set_mapping_rotation_euler(scene.world, old)
     return paths

@@ -1,0 +1,256 @@
+"""The bake job: reads the scene, computes transfer slice by slice, writes all meshes at the end.
+
+BakeJob reads everything it needs from the depsgraph when it is created, computes chunk by chunk
+(steps()) and writes all meshes at the end (finish()); nothing is written before that, so a
+cancelled or failed bake leaves the meshes as they were (storage.write_bakes also restores them
+if the write itself fails). The maths is in prt_addon.core.transfer; docs/bake.md explains it.
+"""
+
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+import bpy
+import numpy as np
+
+from ...core import raytrace, transfer
+from ...core.directions import make_directions
+from ...core.mesh import concatenate_parts
+from ...core.occluders import LazyOccluder
+from .. import mesh_read, storage
+from ..bvh_backend import BVHTreeOccluder
+from .scene import check_object, scene_parts
+from .settings import (BakeError, BakeReport, BakeSettings, blender_threads, fallback_note,
+                       resolve_backend)
+
+# The ray-tracing backends, injected into the core's lazily built occluder.
+BUILDERS = {"EMBREE": raytrace.EmbreeOccluder, "BVHTREE": BVHTreeOccluder}
+
+
+class BakeJob:
+    """One bake of several objects: create, then run() or iterate steps() and call finish()."""
+
+    def __init__(self, objects, settings=None, depsgraph=None):
+        self.settings = (settings or BakeSettings()).validate()
+        self.started = time.perf_counter()
+        self.report = BakeReport(
+            order=self.settings.order, samples=self.settings.samples,
+            direction_set=self.settings.direction_set,
+        )
+        self._cancel = False
+        objects = list(objects or [])
+        if not objects:
+            raise BakeError("nothing selected: select the mesh objects to bake")
+        if depsgraph is None:
+            depsgraph = bpy.context.evaluated_depsgraph_get()
+        self.backend = resolve_backend(self.settings.backend)
+        if self.settings.threads is None:
+            self.settings.threads = blender_threads(depsgraph.scene)
+        self.plans = []
+        self._reads = {}  # evaluated mesh pointer -> (positions, triangles), read once
+        self._pool = ThreadPoolExecutor(max(1, self.settings.threads), thread_name_prefix="prt-bake")
+        try:
+            self._read_scene(depsgraph)
+            seen_meshes = {}
+            for obj in objects:
+                reason = check_object(obj, depsgraph, seen_meshes, self._reads, self.settings.cull)
+                if isinstance(reason, str):
+                    self.report.skipped.append((getattr(obj, "name", repr(obj)), reason))
+                else:
+                    self.plans.append(reason)
+            if not self.plans:
+                reasons = "; ".join(f"'{n}' {r}" for n, r in self.report.skipped)
+                raise BakeError(f"nothing to bake: {reasons}")
+            self._assign_occluders()
+            # The scene's BVH builds on a worker while the baked points are prepared here
+            # (docs/bake.md, "Throughput"); not at all when no object can trace a ray.
+            scene = self._occluder
+            if scene is not None and any(self._may_trace(p) for p in self.plans if p.occluder is scene):
+                scene.start(self._pool)
+            self.directions = make_directions(self.settings.direction_set, self.settings.samples,
+                                              self.settings.seed)
+            # The first object's slices start as soon as its points are ready: they trace while
+            # the other objects' points are read.
+            for index, plan in enumerate(self.plans):
+                mesh_eval, positions = plan.source
+                plan.points = mesh_read.bake_points(mesh_eval, plan.matrix, positions)
+                plan.source = None
+                plan.computation = self._computation(plan)
+                if index == 0:
+                    plan.computation.start()
+            self._parts = self._reads = None  # not needed any more: free the arrays
+        except BaseException:
+            self.close()
+            raise
+        self.total_points = sum(len(p.points.positions) for p in self.plans)
+
+    def _read_scene(self, depsgraph):
+        """Read the scene's triangles into their (not yet built) occluder (shadows from the scene)."""
+        s = self.settings
+        self._parts, self._occluder = [], None
+        if s.shadows and not s.self_shadow_only:
+            self._parts = scene_parts(depsgraph, self._reads)
+            vertices, triangles = concatenate_parts(self._parts)
+            if len(triangles):
+                self._occluder = LazyOccluder(self.backend, vertices, triangles, BUILDERS)
+
+    @staticmethod
+    def _may_trace(plan):
+        """Whether any ray of the plan can be traced (else culling skips them all): its own mesh
+        can occlude it, other occluders exist, or culling is off."""
+        return plan.boxes is None or len(plan.boxes) > 0 or bool(plan.self_occludes)
+
+    def _assign_occluders(self):
+        s = self.settings
+        scene_occluder, parts = self._occluder, self._parts
+        for plan in self.plans:
+            occluder, boxes = None, None
+            if s.shadows:
+                if s.self_shadow_only:
+                    occluder = LazyOccluder(self.backend, plan.own_vertices, plan.own_triangles,
+                                            BUILDERS)
+                    boxes = np.zeros((0, 2, 3))
+                else:
+                    occluder = scene_occluder
+                    others = [v for owner, v, _t in parts if owner is None or owner != plan.obj]
+                    boxes = np.array([raytrace.bounding_box(v) for v in others]).reshape(-1, 2, 3)
+                    if not any(owner == plan.obj for owner, _v, _t in parts):
+                        plan.self_occludes = False  # hidden from the scene: not an occluder
+            if not s.cull:
+                boxes = None
+            plan.occluder, plan.boxes = occluder, boxes
+
+    def _computation(self, plan):
+        s = self.settings
+        return transfer.TransferComputation(
+            plan.points.positions, plan.points.normals, self.directions, s.order,
+            occluder=plan.occluder, offset=plan.offset, self_occludes=plan.self_occludes,
+            other_boxes=plan.boxes, chunk_rays=s.chunk_rays, threads=s.threads, pool=self._pool,
+        )
+
+    def close(self):
+        """Stop the work queued for this job and its threads (idempotent). steps() does it when
+        it ends; the operator calls it too, since a generator closed before its first step never
+        runs its own clean-up."""
+        for plan in self.plans:
+            if plan.computation is not None:
+                plan.computation.close()
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+    def cancel(self):
+        self._cancel = True
+
+    @property
+    def fraction(self):
+        done = sum(p.computation.done for p in self.plans)
+        return done / self.total_points if self.total_points else 1.0
+
+    def steps(self):
+        """Generator: one chunk per step, yielding (fraction done, status text)."""
+        try:
+            for index, plan in enumerate(self.plans):
+                comp = plan.computation
+                while True:
+                    if self._cancel:
+                        raise transfer.Cancelled()
+                    more = comp.step()
+                    yield self.fraction, (
+                        f"Baking '{plan.name}' ({index + 1}/{len(self.plans)}): "
+                        f"{100.0 * self.fraction:.0f} %"
+                    )
+                    if not more:
+                        break
+                comp.close()
+        finally:
+            self.close()
+
+    def finish(self):
+        """Write every baked mesh (all or nothing) and return the report."""
+        s, rep = self.settings, self.report
+        if self._cancel:
+            raise transfer.Cancelled()
+        items, errors, square_norm_sum = [], [], 0.0
+        stats_all = transfer.TransferStats()
+        backends = set()
+        for plan in self.plans:
+            try:
+                current = mesh_read.topology_fingerprint(plan.mesh)
+            except ReferenceError:
+                raise BakeError(f"'{plan.name}' was deleted during the bake") from None
+            if current != plan.fingerprint:
+                raise BakeError(f"the topology of '{plan.name}' changed during the bake: bake again")
+            comp = plan.computation
+            stats = comp.stats
+            stats_all.add(stats)
+            traced = plan.occluder is not None and getattr(plan.occluder, "built", False)
+            backend = self.backend if traced and stats.rays_traced else "NONE"
+            if backend != "NONE":
+                backends.add(backend)
+            local = transfer.to_local_frame(comp.coeffs, plan.matrix[:3, :3])
+            values = local if plan.points.scatter is None else local[plan.points.scatter]
+            result = comp.result()
+            errors.append(result.error.astype(np.float64))
+            square_norm_sum += result.square_norm_sum()
+            record = {
+                "version": storage.FORMAT_VERSION,
+                "order": s.order,
+                "samples": s.samples,
+                "direction_set": s.direction_set,
+                "seed": int(s.seed),
+                "shadows": bool(s.shadows),
+                "self_shadow_only": bool(s.self_shadow_only),
+                "backend": backend,
+                "fingerprint": plan.fingerprint,
+                "offset": float(plan.offset),
+                "seconds": float(stats.seconds),
+                "rays_traced": int(stats.rays_traced),
+                "rays_skipped": int(stats.rays_skipped),
+                "error_estimate": result.error_rms(),
+                "error_estimate_relative": result.error_relative(),
+            }
+            items.append((plan.mesh, values, plan.points.domain, record))
+        storage.write_bakes(items)
+        err = np.concatenate(errors)
+        rep.ok = True
+        rep.objects = [p.name for p in self.plans]
+        rep.backend = backends.pop() if backends else "NONE"
+        if rep.backend == "BVHTREE" and s.backend == "AUTO":
+            rep.note = fallback_note()
+        rep.seconds = time.perf_counter() - self.started
+        rep.rays_traced = stats_all.rays_traced
+        rep.rays_skipped = stats_all.rays_skipped
+        rep.skipped_below_horizon = stats_all.skipped_below_horizon
+        rep.skipped_unoccludable = stats_all.skipped_unoccludable
+        rep.skipped_shadows_off = stats_all.skipped_shadows_off
+        rep.points = int(len(err))
+        rep.error_estimate = float(np.sqrt(np.mean(err**2))) if len(err) else 0.0
+        rms_norm = float(np.sqrt(square_norm_sum / len(err))) if len(err) else 0.0
+        rep.error_estimate_relative = rep.error_estimate / rms_norm if rms_norm > 0 else 0.0
+        rep.message = rep.summary_lines()[0]
+        return rep
+
+    def run(self, progress=None):
+        """Compute and write; progress(fraction, text) after each chunk (an exception aborts)."""
+        for fraction, text in self.steps():
+            if progress is not None:
+                progress(fraction, text)
+        return self.finish()
+
+
+def bake(objects, order=4, samples=256, shadows=True, backend="AUTO", direction_set="FIBONACCI",
+         seed=0, self_shadow_only=False, progress=None, cull=True, depsgraph=None,
+         chunk_rays=transfer.CHUNK_RAYS, threads=None):
+    """Bake and write; returns a BakeReport. Raises BakeError when nothing can be baked."""
+    if objects is not None and isinstance(objects, bpy.types.Object):
+        objects = [objects]
+    settings = BakeSettings(order, samples, direction_set, seed, shadows, self_shadow_only,
+                            backend, cull, chunk_rays, threads)
+    job = BakeJob(objects, settings, depsgraph)
+    return job.run(progress)
+
+
+def status(obj, use_cache=False):
+    """('fresh' | 'stale' | 'none', reason) for an object."""
+    if obj is None or getattr(obj, "type", None) != "MESH":
+        return "none", "not a mesh object"
+    state, reason = storage.bake_status(obj.data, use_cache=use_cache)
+    return state.lower(), reason

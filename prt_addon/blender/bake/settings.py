@@ -1,0 +1,151 @@
+"""What a bake is asked to do and what it reports: settings, their checks, the report, backends."""
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from ...core import raytrace, transfer
+from ...core.directions import KINDS
+
+
+BACKENDS = ("AUTO", "EMBREE", "BVHTREE")
+
+
+MAX_ORDER = 16
+MIN_SAMPLES = 2  # the API's and the Samples property's minimum
+
+
+# Ray origin offset along the normal: OFFSET_REL times the world bounding-box diagonal of the
+# object being baked, and at least OFFSET_ULP times its largest coordinate (float32 rounding).
+OFFSET_REL = 1e-4
+
+
+OFFSET_ULP = 1e-5
+
+
+class BakeError(ValueError):
+    """The bake cannot start (bad settings or nothing bakeable); the message says what to do."""
+
+
+@dataclass
+class BakeSettings:
+    order: int = 4
+    samples: int = 256
+    direction_set: str = "FIBONACCI"
+    seed: int = 0
+    shadows: bool = True
+    self_shadow_only: bool = False
+    backend: str = "AUTO"
+    cull: bool = True  # skip rays where nothing can occlude (False: trace them all, for tests)
+    chunk_rays: int = transfer.CHUNK_RAYS
+    threads: int = None  # None: Blender's own setting (Render > Performance > Threads)
+
+    def validate(self):
+        if isinstance(self.order, bool) or not isinstance(self.order, (int, np.integer)) \
+                or not 1 <= self.order <= MAX_ORDER:
+            raise BakeError(f"order must be an integer from 1 to {MAX_ORDER}, got {self.order!r}")
+        if isinstance(self.samples, bool) or not isinstance(self.samples, (int, np.integer)) \
+                or self.samples < MIN_SAMPLES:
+            raise BakeError(f"samples must be an integer >= {MIN_SAMPLES}, got {self.samples!r}")
+        self.direction_set = str(self.direction_set).upper()
+        if self.direction_set not in KINDS:
+            raise BakeError(f"direction_set must be one of {KINDS}, got {self.direction_set!r}")
+        self.backend = str(self.backend).upper()
+        if self.backend not in BACKENDS:
+            raise BakeError(f"backend must be one of {BACKENDS}, got {self.backend!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise BakeError(f"seed must be an integer >= 0, got {self.seed!r}")
+        if self.threads is not None and (
+            isinstance(self.threads, bool) or not isinstance(self.threads, (int, np.integer))
+            or self.threads < 1
+        ):
+            raise BakeError(f"threads must be None (Blender's setting) or an integer >= 1, "
+                            f"got {self.threads!r}")
+        self.order, self.samples, self.seed = int(self.order), int(self.samples), int(self.seed)
+        return self
+
+
+@dataclass
+class BakeReport:
+    ok: bool = False
+    cancelled: bool = False
+    message: str = ""
+    objects: list = field(default_factory=list)
+    skipped: list = field(default_factory=list)  # [(name, reason)]
+    backend: str = "NONE"
+    seconds: float = 0.0
+    rays_traced: int = 0
+    rays_skipped: int = 0
+    skipped_below_horizon: int = 0
+    skipped_unoccludable: int = 0
+    skipped_shadows_off: int = 0
+    points: int = 0
+    error_estimate: float = 0.0
+    error_estimate_relative: float = 0.0
+    order: int = 0
+    samples: int = 0
+    direction_set: str = ""
+    note: str = ""  # e.g. why the slower BVH tree fallback ran
+
+    @property
+    def rays_per_second(self):
+        return self.rays_traced / self.seconds if self.seconds > 0 else 0.0
+
+    def as_dict(self):
+        d = asdict(self)
+        d["skipped"] = [list(s) for s in self.skipped]
+        return d
+
+    def headline(self):
+        """One line: what was baked, how long, how many rays, how far from converged."""
+        if not self.ok:
+            return self.message or ("Bake cancelled" if self.cancelled else "Bake failed")
+        return (f"Baked {len(self.objects)} object(s) in {self.seconds:.2f} s ({self.backend}), "
+                f"{self.rays_traced:,} rays, error estimate "
+                f"{100.0 * self.error_estimate_relative:.2f} %")
+
+    def summary_lines(self):
+        if not self.ok:
+            lines = [self.message or ("Bake cancelled" if self.cancelled else "Bake failed")]
+        else:
+            lines = [
+                f"Baked {len(self.objects)} object(s) in {self.seconds:.2f} s ({self.backend})",
+                f"Order {self.order}, {self.samples} {self.direction_set.lower()} directions",
+                f"Rays traced {self.rays_traced:,}, skipped {self.rays_skipped:,}",
+                f"  below horizon {self.skipped_below_horizon:,}, nothing to occlude "
+                f"{self.skipped_unoccludable:,}, shadows off {self.skipped_shadows_off:,}",
+                f"Error estimate {self.error_estimate:.2e} "
+                f"({100.0 * self.error_estimate_relative:.2f} % of |t|)",
+            ]
+        if self.note:
+            lines.append(self.note)
+        lines += [f"Skipped '{name}': {reason}" for name, reason in self.skipped]
+        return lines
+
+
+# Embree bake vs BVH tree bake throughput, measured by benchmarks/bench_bake.py (docs/bake.md).
+FALLBACK_SLOWDOWN = "30 to 40"
+
+
+def fallback_note():
+    """The sentence shown when Auto falls back to the BVH tree because embreex does not import."""
+    return (f"Embree (embreex) is not available on this system ({raytrace.EMBREE_IMPORT_ERROR}): "
+            f"the slower BVH tree fallback was used (about {FALLBACK_SLOWDOWN} times slower, one thread)")
+
+
+def resolve_backend(requested):
+    requested = str(requested).upper()
+    if requested == "AUTO":
+        return "EMBREE" if raytrace.EMBREE_AVAILABLE else "BVHTREE"
+    if requested == "EMBREE" and not raytrace.EMBREE_AVAILABLE:
+        raise BakeError(
+            f"the Embree backend is not available on this system ({raytrace.EMBREE_IMPORT_ERROR}): "
+            "choose Auto or BVH Tree"
+        )
+    return requested
+
+
+def blender_threads(scene):
+    """The thread count of Blender's own setting (Render Properties > Performance > Threads):
+    RenderSettings.threads reads as every logical core in Auto mode, else the Fixed number."""
+    return max(1, int(scene.render.threads))

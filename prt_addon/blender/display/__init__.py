@@ -1,0 +1,1 @@
+"""The live PRT display: shader, GPU cache, albedo, lighting, drawing, offscreen renders."""

@@ -1,0 +1,156 @@
+"""Drawing: the baked objects with the PRT shader, and the viewport draw handler.
+
+Per redraw (docs/display.md): the world light comes from lighting.world_light; per object it is
+rotated into the object's local frame and written into its uniform buffer only when it changed;
+the transfer batches come from gpu_cache. Nothing here changes Blender data.
+"""
+
+import bpy
+import gpu
+import numpy as np
+
+from .. import storage
+from .albedo import _slot_tints, display_settings, material_colour
+from .gpu_cache import ObjectState, _object_cache, _prune, clear_caches, get_mesh_entry
+from .lighting import exposure_scale, light_in_local_frame, world_light
+from .shader import get_shader, light_ubo_bytes
+
+
+VIEWPORT_DEPTH_BIAS = 2e-5  # clip-space z bias so the overlay wins against the engine's own depth
+
+
+def baked_objects(scene, view_layer=None, viewport=None):
+    """Visible mesh objects of the view layer whose mesh holds a usable bake (stale ones too)."""
+    view_layer = view_layer or scene.view_layers[0]
+    out = []
+    for obj in view_layer.objects:
+        if obj.type != "MESH" or storage.RECORD not in obj.data:
+            continue
+        try:
+            visible = obj.visible_get(view_layer=view_layer, viewport=viewport) if viewport else obj.visible_get(view_layer=view_layer)
+        except TypeError:
+            visible = obj.visible_get()
+        if visible and obj.mode != "EDIT":
+            out.append(obj)
+    return out
+
+
+def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, depsgraph=None):
+    """Draw `objects` with the PRT shader into the bound framebuffer. Returns the number drawn.
+
+    view_projection: 4x4 (mathutils.Matrix or array) world -> clip. The caller sets depth state.
+    depsgraph: the evaluated depsgraph whose deformed meshes are drawn (deformed_mesh);
+    None draws every mesh undeformed.
+    """
+    import mathutils
+
+    light = world_light(scene)
+    if light is None:
+        return 0
+    light_tag = (light.shape, light.tobytes())
+    vp = mathutils.Matrix(np.asarray(view_projection, dtype=np.float64).tolist())
+    albedo_mode, albedo_attr = display_settings(scene)
+    drawn = 0
+    for obj in objects:
+        info, _problem = storage.usable_bake(obj.data, check_topology=False)
+        if info is None:
+            continue
+        entry = get_mesh_entry(obj.data, info, albedo_mode, albedo_attr, obj, depsgraph)
+        if not entry.batches:
+            continue
+        shader = get_shader(info.count)
+        state = _object_cache.setdefault(obj.as_pointer(), ObjectState())
+        mw = np.array(obj.matrix_world, dtype=np.float64)
+        light_key = (light_tag, mw[:3, :3].tobytes(), info.order, info.count)
+        if state.ubo is None or state.light_key != light_key:
+            data = light_ubo_bytes(light_in_local_frame(light, mw, info.order), info.count)
+            if state.ubo is None or state.light_key is None or state.light_key[3] != info.count:
+                state.ubo = gpu.types.GPUUniformBuf(data)
+            else:
+                state.ubo.update(data)
+            state.light_key = light_key
+        shader.bind()
+        shader.uniform_float("mvp", vp @ obj.matrix_world)
+        shader.uniform_float("scale", float(scale))
+        shader.uniform_float("depth_bias", float(depth_bias))
+        shader.uniform_block("light", state.ubo)
+        if entry.texture is not None:
+            shader.uniform_int("per_row", entry.per_row)
+            shader.uniform_sampler("transfer_tx", entry.texture)
+        tints = _slot_tints(obj, albedo_mode)
+        for mat_index, batch in entry.batches:
+            tint = (1.0, 1.0, 1.0, 1.0)
+            if tints:
+                tint = tints[min(mat_index, len(tints) - 1)]
+            elif albedo_mode == "MATERIAL":
+                tint = material_colour(None)
+            shader.uniform_float("tint", tint)
+            batch.draw(shader)
+        drawn += 1
+    return drawn
+
+
+def _draw_callback():
+    context = bpy.context
+    scene = context.scene
+    settings = getattr(scene, "prt", None)
+    if settings is None or not settings.show_display:
+        return
+    region_data = context.region_data
+    if region_data is None:
+        return
+    objects = baked_objects(scene, context.view_layer, context.space_data)
+    if not objects:
+        return
+    depth_mask = gpu.state.depth_mask_get()
+    gpu.state.depth_test_set("LESS_EQUAL")
+    gpu.state.depth_mask_set(True)
+    try:
+        draw_objects(
+            scene,
+            region_data.perspective_matrix,
+            objects,
+            scale=exposure_scale(scene),
+            depth_bias=VIEWPORT_DEPTH_BIAS,
+            depsgraph=context.evaluated_depsgraph_get(),
+        )
+    finally:
+        gpu.state.depth_mask_set(depth_mask)
+        gpu.state.depth_test_set("NONE")
+    _prune(objects)
+
+
+_draw_handle = None
+
+
+def draw_handle():
+    """The current draw-handler handle (None when not installed); tests use it."""
+    return _draw_handle
+
+
+def add_draw_handler():
+    global _draw_handle
+    if _draw_handle is None:
+        _draw_handle = bpy.types.SpaceView3D.draw_handler_add(_draw_callback, (), "WINDOW", "POST_VIEW")
+    return _draw_handle
+
+
+def remove_draw_handler():
+    global _draw_handle
+    if _draw_handle is not None:
+        try:
+            bpy.types.SpaceView3D.draw_handler_remove(_draw_handle, "WINDOW")
+        except ValueError:
+            pass
+        _draw_handle = None
+    clear_caches()
+
+
+def tag_redraw():
+    wm = getattr(bpy.context, "window_manager", None)
+    if wm is None:
+        return
+    for window in wm.windows:
+        for area in window.screen.areas:
+            if area.type == "VIEW_3D":
+                area.tag_redraw()

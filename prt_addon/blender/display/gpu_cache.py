@@ -1,0 +1,177 @@
+"""GPU data of baked meshes (vertex buffers, batches, transfer textures), cached per mesh and bake.
+
+Uploaded once per mesh and bake, and again whenever the evaluated positions of an object deformed
+by modifiers or shape keys move (their batches are cached per object).
+"""
+
+import gpu
+import numpy as np
+
+from .. import mesh_read, storage
+from .albedo import element_albedo, element_count
+from .shader import shader_mode
+
+
+class MeshEntry:
+    """GPU data of one baked mesh: vertex buffer, one batch per material slot, transfer texture."""
+
+    def __init__(self, key, batches, texture, per_row, evaluated):
+        self.key = key
+        self.batches = batches  # list of (material_index, GPUBatch)
+        self.texture = texture
+        self.per_row = per_row
+        self.evaluated = evaluated  # the evaluated positions it was built for (deformed objects)
+
+
+class ObjectState:
+    __slots__ = ("ubo", "light_key")
+
+    def __init__(self):
+        self.ubo = None
+        self.light_key = None
+
+
+_mesh_cache = {}  # (mesh pointer, object pointer or 0 when undeformed) -> MeshEntry
+
+
+_object_cache = {}  # object pointer -> ObjectState
+
+
+def clear_caches():
+    _mesh_cache.clear()
+    _object_cache.clear()
+
+
+def _cache_key(mesh, info, albedo_mode, albedo_attr):
+    record = info.record
+    rec = record.to_dict() if hasattr(record, "to_dict") else dict(record)
+    return (
+        repr(sorted((k, repr(v)) for k, v in rec.items())),
+        len(mesh.vertices),
+        len(mesh.loops),
+        len(mesh.polygons),
+        albedo_mode,
+        albedo_attr,
+    )
+
+
+def read_transfer(mesh, info):
+    """(elements, 4 * count) float32: t_0 .. t_{4 count - 1} per element (padding channels 0)."""
+    return storage.read_transfer(mesh, info, padded=True)
+
+
+def deformed_mesh(obj, depsgraph):
+    """obj's evaluated mesh when its modifiers or shape keys may move its vertices and keep the
+    element counts (what the viewport shows, and what the bake used), else None: the mesh's
+    own positions are drawn (no deformation; no depsgraph; or other counts, which the bake
+    refuses, e.g. a Subdivision added after baking). get_mesh_entry also compares the full
+    topology before it draws these positions."""
+    mesh = obj.data
+    if depsgraph is None or not (mesh.shape_keys or any(m.show_viewport for m in obj.modifiers)):
+        return None
+    mesh_eval = obj.evaluated_get(depsgraph).data
+    counts = (len(mesh.vertices), len(mesh.loops), len(mesh.polygons))
+    if (len(mesh_eval.vertices), len(mesh_eval.loops), len(mesh_eval.polygons)) != counts:
+        return None
+    return mesh_eval
+
+
+def build_mesh_entry(mesh, info, key, albedo_mode="MATERIAL", albedo_attr="", positions=None,
+                     evaluated=None):
+    """Upload a baked mesh: vertex buffer per element, index buffers per material, transfer.
+    key: its _cache_key; positions: (vertices, 3) local positions to draw instead of the mesh's
+    (deformed_mesh); evaluated: the evaluated positions the entry stands for (get_mesh_entry)."""
+    n = element_count(mesh, info.domain)
+    if positions is None:
+        positions = mesh_read.read_positions(mesh)
+    mesh.calc_loop_triangles()
+    ntri = len(mesh.loop_triangles)
+    tris = np.empty(ntri * 3, dtype=np.int32)
+    mesh.loop_triangles.foreach_get("loops" if info.domain == "CORNER" else "vertices", tris)
+    tris = tris.reshape(-1, 3)
+    mat_index = np.empty(ntri, dtype=np.int32)
+    mesh.loop_triangles.foreach_get("material_index", mat_index)
+    if info.domain == "CORNER":
+        positions = np.ascontiguousarray(positions[mesh_read.read_corner_verts(mesh)])
+    transfer = read_transfer(mesh, info)
+    albedo = element_albedo(mesh, info.domain, albedo_mode, albedo_attr)
+
+    mode = shader_mode(info.count)
+    fmt = gpu.types.GPUVertFormat()
+    fmt.attr_add(id="prt_pos", comp_type="F32", len=3, fetch_mode="FLOAT")
+    fmt.attr_add(id="prt_albedo", comp_type="F32", len=4, fetch_mode="FLOAT")
+    if mode == "ATTR":
+        for k in range(info.count):
+            fmt.attr_add(id=f"prt_t{k}", comp_type="F32", len=4, fetch_mode="FLOAT")
+    vbo = gpu.types.GPUVertBuf(fmt, n)
+    vbo.attr_fill("prt_pos", positions)
+    vbo.attr_fill("prt_albedo", albedo)
+    texture, per_row = None, 0
+    if mode == "ATTR":
+        for k in range(info.count):
+            vbo.attr_fill(f"prt_t{k}", np.ascontiguousarray(transfer[:, 4 * k : 4 * k + 4]))
+    else:
+        texture, per_row = _transfer_texture(transfer, info.count)
+
+    batches = []
+    if ntri:
+        order_idx = np.argsort(mat_index, kind="stable")
+        sorted_mat = mat_index[order_idx]
+        starts = np.flatnonzero(np.r_[True, sorted_mat[1:] != sorted_mat[:-1]])
+        ends = np.r_[starts[1:], ntri]
+        for s, e in zip(starts, ends):
+            seq = np.ascontiguousarray(tris[order_idx[s:e]])
+            ibo = gpu.types.GPUIndexBuf(type="TRIS", seq=seq)
+            batches.append((int(sorted_mat[s]), gpu.types.GPUBatch(type="TRIS", buf=vbo, elem=ibo)))
+    return MeshEntry(key, batches, texture, per_row, evaluated)
+
+
+def _transfer_texture(transfer, count):
+    """RGBA32F texture, element e's k-th vec4 at texel ((e % per_row) * count + k, e // per_row)."""
+    n = transfer.shape[0]
+    max_size = min(16384, gpu.capabilities.max_texture_size_get())
+    per_row = max(1, min(max_size // count, n))
+    rows = max(1, -(-n // per_row))
+    if rows > max_size:
+        raise RuntimeError(
+            f"{n} elements at {count} texels each exceed one {max_size}x{max_size} texture"
+        )
+    data = np.zeros((rows * per_row * count, 4), dtype=np.float32)
+    data[: n * count] = transfer.reshape(n * count, 4)
+    buf = gpu.types.Buffer("FLOAT", data.size, data.reshape(-1))
+    tex = gpu.types.GPUTexture((per_row * count, rows), format="RGBA32F", data=buf)
+    return tex, per_row
+
+
+def get_mesh_entry(mesh, info, albedo_mode, albedo_attr, obj=None, depsgraph=None):
+    """The cached batches of `mesh`, or of `obj` when its modifiers or shape keys deform it:
+    those are drawn at their evaluated positions, read again at every draw; when they moved (an
+    animated armature, a shape-key value being dragged) the whole entry is built again."""
+    mesh_eval = None if obj is None else deformed_mesh(obj, depsgraph)
+    positions = None if mesh_eval is None else mesh_read.read_positions(mesh_eval)
+    ptr = (mesh.as_pointer(), 0 if positions is None else obj.as_pointer())
+    key = _cache_key(mesh, info, albedo_mode, albedo_attr)
+    entry = _mesh_cache.get(ptr)
+    if entry is None or entry.key != key or (
+        positions is not None and not np.array_equal(entry.evaluated, positions)
+    ):
+        drawn = positions
+        # Same counts but other connectivity (e.g. a Sort Elements node): the baked elements
+        # are not these, so draw the undeformed mesh.
+        if positions is not None and mesh_read.topology_fingerprint(mesh_eval) != mesh_read.topology_fingerprint(mesh):
+            drawn = None
+        entry = build_mesh_entry(mesh, info, key, albedo_mode, albedo_attr, drawn, positions)
+        _mesh_cache[ptr] = entry
+    return entry
+
+
+def _prune(objects, slack=8):
+    """Drop cached GPU data of meshes and objects no longer drawn (deleted, undone, hidden)."""
+    if len(_mesh_cache) + len(_object_cache) <= 2 * len(objects) + slack:
+        return
+    meshes = {obj.data.as_pointer() for obj in objects}
+    objs = {obj.as_pointer() for obj in objects}
+    for key in [k for k in _mesh_cache if k[0] not in meshes or (k[1] and k[1] not in objs)]:
+        del _mesh_cache[key]
+    for key in [k for k in _object_cache if k not in objs]:
+        del _object_cache[key]

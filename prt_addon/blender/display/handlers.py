@@ -1,0 +1,68 @@
+"""App handlers of the display: file load and geometry updates; every one removed on unregister."""
+
+import bpy
+from bpy.app.handlers import persistent
+
+from .. import storage
+from . import draw, gpu_cache, shader
+from .lighting import clear_light_overrides
+
+
+@persistent
+def _on_load_pre(*_args):
+    draw.remove_draw_handler()
+    clear_light_overrides()
+    storage.forget_all_cached_fingerprints()  # (keyed by pointers, which a new file reuses)
+
+
+@persistent
+def _on_load_post(*_args):
+    draw.add_draw_handler()
+
+
+@persistent
+def _on_depsgraph_update(_scene, depsgraph):
+    for update in depsgraph.updates:
+        if not update.is_updated_geometry:
+            continue
+        ident = update.id
+        mesh = None
+        if isinstance(ident, bpy.types.Mesh):
+            mesh = ident.original
+        elif isinstance(ident, bpy.types.Object) and ident.type == "MESH":
+            mesh = ident.original.data
+        if mesh is not None:
+            ptr = mesh.as_pointer()
+            for key in [k for k in gpu_cache._mesh_cache if k[0] == ptr]:
+                del gpu_cache._mesh_cache[key]
+            storage.forget_cached_fingerprints(mesh)
+
+
+_APP_HANDLERS = (
+    ("load_pre", _on_load_pre),
+    ("load_post", _on_load_post),
+    ("depsgraph_update_post", _on_depsgraph_update),
+)
+
+
+def register_handlers():
+    for name, func in _APP_HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        if func not in handlers:
+            handlers.append(func)
+    draw.add_draw_handler()
+
+
+def unregister_handlers():
+    draw.remove_draw_handler()
+    for name, func in _APP_HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        while func in handlers:
+            handlers.remove(func)
+    clear_light_overrides()
+    storage.forget_all_cached_fingerprints()  # (keyed by pointers, which a new file reuses)
+    shader._shaders.clear()
+
+
+register_extra = register_handlers
+unregister_extra = unregister_handlers

@@ -1,0 +1,103 @@
+"""The light the display draws: the world's SH (or an override), rotated into each object's frame.
+
+`shade()` computes on the CPU the radiance the shader draws, from the same local-frame light and
+the same float32 transfer values, albedo excluded.
+"""
+
+import bpy
+import numpy as np
+
+from ...core import rotation as _rotation
+from ...core import sh as _sh
+from ...core import transfer as _transfer
+from .. import storage
+from ..world import nodes as _nodes
+from ..world import projection as _world
+
+
+_light_overrides = {}  # scene name -> (n*n, 3) float64 unrotated light
+
+
+def set_light_override(scene, coeffs):
+    """Use `coeffs` ((n*n, 3) or (n*n,)) as the scene's unrotated light instead of the world's.
+
+    The world's Mapping node rotation still applies (`world_light`), exactly as it would to the
+    projected world. Pass None to remove. Overrides are dropped when a file loads.
+    """
+    if coeffs is None:
+        _light_overrides.pop(scene.name, None)
+    else:
+        c = np.asarray(coeffs, dtype=np.float64)
+        if c.ndim == 1:
+            c = np.repeat(c[:, None], 3, axis=1)
+        _sh.order_of(c.shape[0])
+        if c.ndim != 2 or c.shape[1] != 3:
+            raise ValueError(f"light coefficients must have shape (n*n, 3), got {c.shape}")
+        _light_overrides[scene.name] = c.copy()
+    from .draw import tag_redraw  # (draw imports this module)
+
+    tag_redraw()
+
+
+def clear_light_overrides():
+    _light_overrides.clear()
+
+
+def world_light(scene):
+    """(n*n, 3) float64 world-space light SH of the scene, or None when there is none."""
+    override = _light_overrides.get(scene.name)
+    if override is not None:
+        rot = _nodes.live_sh_rotation(scene.world)
+        return override if rot is None else _rotation.rotate(override, rot)
+    coeffs = _world.current_world_coeffs(scene)
+    return None if coeffs is None else np.asarray(coeffs, dtype=np.float64)
+
+
+def light_in_local_frame(light_world, matrix_world, order):
+    """(order**2, 3) light in the object's local frame: rotated by the inverse of the rotation
+    part of matrix_world, truncated or zero-padded to `order`. The same frame as the bake's
+    core.transfer.to_local_frame, applied to the light instead of the transfer."""
+    n2 = order * order
+    light = np.zeros((n2, 3))
+    m = min(n2, light_world.shape[0])
+    light[:m] = light_world[:m]
+    r, parity = _transfer.frame_rotation(np.asarray(matrix_world, dtype=np.float64)[:3, :3])
+    if np.abs(r - np.eye(3)).max() > 1e-12:
+        light = _rotation.rotate(light, r.T)
+    if parity:
+        light *= ((-1.0) ** _sh.band_of_index(order))[:, None]
+    return light
+
+
+def object_light(obj, scene, order=None):
+    """The local-frame light used for obj ((order**2, 3) float64), or None without lighting."""
+    light = world_light(scene)
+    if light is None:
+        return None
+    if order is None:
+        info, _ = storage.usable_bake(obj.data)
+        order = info.order if info is not None else _sh.order_of(light.shape[0])
+    return light_in_local_frame(light, obj.matrix_world, order)
+
+
+def shade(obj, scene=None):
+    """Per-element radiance (elements, 3) float64 that the display shader computes for a white
+    surface: max(sum_i L_i t_i, 0) per channel, L in obj's local frame. One row per vertex for a
+    POINT bake, per face corner for a CORNER bake."""
+    scene = scene if scene is not None else bpy.context.scene
+    bpy.context.evaluated_depsgraph_get()  # flush pending transform edits into matrix_world
+    mesh = obj.data
+    info, problem = storage.usable_bake(mesh)
+    if info is None or problem:  # not baked, or stale (topology changed since the bake)
+        raise ValueError(f"'{obj.name}': {problem}: bake it (PRT tab > Bake Transfer)")
+    light = object_light(obj, scene, info.order)
+    if light is None:
+        raise ValueError("the scene has no PRT lighting (project the world first)")
+    transfer = storage.read_transfer(mesh, info, padded=True).astype(np.float64)
+    n2 = info.order * info.order
+    return np.maximum(transfer[:, :n2] @ light, 0.0)
+
+
+def exposure_scale(scene):
+    """2**exposure: the scene exposure the viewport applies before its view transform."""
+    return 2.0 ** float(scene.view_settings.exposure)

@@ -1,0 +1,108 @@
+"""numpy out of Blender meshes: positions, normals, corners, triangles, topology fingerprints.
+
+Reads go through foreach_get into float32/int32 buffers; the geometry itself is computed by
+prt_addon.core.mesh.
+"""
+
+import hashlib
+
+import numpy as np
+
+from ..core.mesh import BakePoints, transform_normals, transform_points, triangulate_quads
+from ..core.mesh import vertex_points, vertex_normal_pairs
+
+
+def read_positions(mesh):
+    out = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    if len(out):
+        mesh.attributes["position"].data.foreach_get("vector", out)
+    return out.reshape(-1, 3)
+
+
+def read_vertex_normals(mesh):
+    out = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    if len(out):
+        mesh.vertex_normals.foreach_get("vector", out)
+    return out.reshape(-1, 3)
+
+
+def read_corner_normals(mesh):
+    out = np.empty(len(mesh.loops) * 3, dtype=np.float32)
+    if len(out):
+        mesh.corner_normals.foreach_get("vector", out)
+    return out.reshape(-1, 3)
+
+
+def read_corner_verts(mesh):
+    out = np.empty(len(mesh.loops), dtype=np.int32)
+    if len(out):
+        attr = mesh.attributes.get(".corner_vert")  # ~200 times faster than mesh.loops
+        if attr is not None and attr.data_type == "INT" and attr.domain == "CORNER":
+            attr.data.foreach_get("value", out)
+        else:
+            mesh.loops.foreach_get("vertex_index", out)
+    return out
+
+
+def read_face_starts(mesh):
+    out = np.empty(len(mesh.polygons), dtype=np.int32)
+    if len(out):
+        mesh.polygons.foreach_get("loop_start", out)
+    return out
+
+
+def read_triangles(mesh, positions=None):
+    """(T, 3) int32 vertex indices of the mesh's loop triangles, in Blender's order.
+
+    Meshes of triangles and quads are triangulated here as Blender does it, about twice as fast
+    as reading mesh.loop_triangles, whose foreach_get goes element by element (5.7 -> 2.9 ms for
+    a 31k-quad mesh); meshes with n-gons read loop_triangles. positions: the mesh's vertex
+    positions if already read.
+    """
+    corner_verts = read_corner_verts(mesh)
+    starts = read_face_starts(mesh)
+    sizes = np.diff(starts, append=np.int32(len(corner_verts)))
+    if len(starts) == 0 or not ((sizes == 3) | (sizes == 4)).all():
+        mesh.calc_loop_triangles()
+        out = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+        if len(out):
+            mesh.loop_triangles.foreach_get("vertices", out)
+        return out.reshape(-1, 3)
+    positions = read_positions(mesh) if positions is None else positions
+    return triangulate_quads(corner_verts, starts, sizes, positions)
+
+
+def topology_fingerprint(mesh):
+    """'V:E:F:L:hash' of the vertex, edge, face and corner counts and the corner/face layout."""
+    h = hashlib.blake2b(digest_size=8)
+    h.update(read_corner_verts(mesh).tobytes())
+    h.update(read_face_starts(mesh).tobytes())
+    return (
+        f"{len(mesh.vertices)}:{len(mesh.edges)}:{len(mesh.polygons)}:{len(mesh.loops)}:"
+        f"{h.hexdigest()}"
+    )
+
+
+def bake_points(mesh, matrix4, positions=None):
+    """BakePoints of an (evaluated) mesh whose topology matches the mesh being written.
+
+    Domain: POINT when every vertex has a single normal over all its corners (mesh.normals_domain
+    is POINT: all faces smooth, no sharp edges, no custom normals; or e.g. a flat plane, whose
+    corners at a vertex all share the face normal up to NORMAL_TOLERANCE), else CORNER.
+    positions: the mesh's local vertex positions if already read (read_positions).
+    """
+    positions = read_positions(mesh) if positions is None else positions
+    if mesh.normals_domain == "POINT":
+        return vertex_points(matrix4, positions, read_vertex_normals(mesh))
+    # Corners that share a vertex and a normal (smooth regions) get the same transfer: bake once.
+    vert, normals, inverse = vertex_normal_pairs(
+        read_corner_verts(mesh), read_corner_normals(mesh), len(positions)
+    )
+    if np.array_equal(vert, np.arange(len(positions))):  # sorted: exactly one normal each
+        return vertex_points(matrix4, positions, normals)
+    return BakePoints(
+        "CORNER",
+        transform_points(matrix4, positions[vert]),
+        transform_normals(matrix4, normals),
+        inverse.astype(np.int64),
+    )

@@ -1,0 +1,1 @@
+"""Operators (prt.*): they move data between Blender and the rest and report to the user."""

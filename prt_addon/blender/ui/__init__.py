@@ -1,0 +1,1 @@
+"""Property groups and sidebar panels."""

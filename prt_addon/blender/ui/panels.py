@@ -1,0 +1,143 @@
+"""The sidebar tab "PRT" of the 3D View: the root panel and its World, Bake and Display panels."""
+
+import bpy
+
+from ...core import raytrace
+from .. import storage
+from ..bake.reports import last_report
+from ..bake.job import status
+from ..bake.settings import FALLBACK_SLOWDOWN, BakeReport
+from ..display import lighting, shader
+from ..world import nodes
+
+
+class VIEW3D_PT_prt(bpy.types.Panel):
+    bl_idname = "VIEW3D_PT_prt"
+    bl_label = "PRT Lighting"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "PRT"
+
+    def draw(self, context):
+        settings = context.scene.prt
+        self.layout.prop(settings, "show_display")
+
+
+class PRTSubPanel:
+    """Placement shared by the feature panels: sub-panels of VIEW3D_PT_prt in the "PRT" tab."""
+
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "PRT"
+    bl_parent_id = "VIEW3D_PT_prt"
+
+
+class VIEW3D_PT_prt_world(PRTSubPanel, bpy.types.Panel):
+    bl_idname = "VIEW3D_PT_prt_world"
+    bl_label = "World Lighting"
+
+    def draw(self, context):
+        settings = context.scene.prt_world
+        layout = self.layout
+        layout.prop(settings, "order")
+        layout.operator("prt.project_world")
+        if settings.stored_order < 1:
+            layout.label(text="No world lighting stored")
+            return
+        col = layout.column(align=True)
+        col.label(text=f"Order {settings.stored_order} from {settings.source_kind.lower()}")
+        if settings.image_name:
+            w, h = settings.image_size
+            col.label(text=f"{settings.image_name} ({w}x{h})")
+        if settings.mapping_node:
+            col.label(text=f"Rotated by {settings.mapping_node} ({settings.mapping_type.lower()})")
+        col.label(text=f"{settings.seconds:.2f} s, beyond the order: radiance {100.0 * settings.truncation:.1f} %, "
+                  f"diffuse {100.0 * settings.diffuse_truncation:.2g} %")
+        if settings.message:
+            col.label(text=settings.message, icon="ERROR")
+
+
+class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
+    bl_idname = "VIEW3D_PT_prt_bake"
+    bl_label = "Bake Transfer"
+
+    def draw(self, context):
+        layout = self.layout
+        settings = context.scene.prt_bake
+        col = layout.column(align=True)
+        col.prop(settings, "order")
+        col.prop(settings, "samples")
+        col.prop(settings, "direction_set")
+        col.prop(settings, "shadows")
+        sub = col.column(align=True)
+        sub.enabled = settings.shadows
+        sub.prop(settings, "self_shadow_only")
+        sub.prop(settings, "backend")
+        if not raytrace.EMBREE_AVAILABLE:
+            if settings.backend == "EMBREE":
+                layout.label(text="Embree is not available here: choose Auto or BVH Tree", icon="ERROR")
+            else:
+                col = layout.column(align=True)
+                col.label(text="Embree (embreex) is not available here:", icon="INFO")
+                col.label(text=f"the BVH tree fallback bakes {FALLBACK_SLOWDOWN}x slower")
+        layout.operator("prt.bake_transfer", text="Bake", icon="RENDER_STILL")
+        stale = []
+        for obj in context.selected_objects[:16]:
+            if obj.type == "MESH":
+                state, reason = status(obj, use_cache=True)
+                if state == "stale":
+                    stale.append((obj.name, reason))
+        obj = context.active_object
+        if obj is not None and obj.type == "MESH":
+            state, reason = status(obj, use_cache=True)
+            icon = {"fresh": "CHECKMARK", "stale": "ERROR", "none": "DOT"}[state]
+            layout.label(text=f"{obj.name}: {state} ({reason})", icon=icon)
+        for name, reason in stale:
+            if obj is None or name != obj.name:
+                layout.label(text=f"{name}: stale ({reason})", icon="ERROR")
+        data = last_report(context.scene)
+        if data:
+            try:
+                report = BakeReport(**{k: v for k, v in data.items() if k in BakeReport.__dataclass_fields__})
+            except (ValueError, TypeError):
+                return
+            box = layout.box()
+            for line in report.summary_lines():
+                box.label(text=line)
+
+
+class VIEW3D_PT_prt_display(PRTSubPanel, bpy.types.Panel):
+    bl_idname = "VIEW3D_PT_prt_display"
+    bl_label = "Display"
+
+    def draw(self, context):
+        layout = self.layout
+        scene = context.scene
+        settings = scene.prt_display
+        col = layout.column()
+        mapping = nodes.find_mapping_node(scene.world)
+        if nodes.find_environment_node(scene.world) is None:
+            col.label(text="World has no Environment Texture", icon="INFO")
+        elif mapping is None:
+            col.operator("prt.set_light_rotation", text="Add Lighting Rotation", icon="WORLD")
+        else:
+            col.prop(mapping.inputs["Rotation"], "default_value", text="Lighting Rotation")
+        layout.prop(settings, "albedo_source")
+        if settings.albedo_source == "ATTRIBUTE":
+            layout.prop(settings, "albedo_attribute")
+        if lighting.world_light(scene) is None:
+            layout.label(text="No projected world lighting", icon="ERROR")
+        obj = context.active_object
+        if obj is not None and obj.type == "MESH" and storage.RECORD in obj.data:
+            info, problem = storage.usable_bake(obj.data, check_topology=False)
+            if info is None:
+                layout.label(text=f"{obj.name}: not displayed ({problem})", icon="ERROR")
+            else:
+                path = "vertex attributes" if shader.shader_mode(info.count) == "ATTR" else "texture"
+                layout.label(text=f"{obj.name}: order {info.order}, transfer from {path}")
+        view = scene.view_settings
+        if view.view_transform != "Standard":
+            layout.label(text=f"Viewport shows radiance as 'Standard', not '{view.view_transform}'", icon="INFO")
+
+
+CLASSES = [VIEW3D_PT_prt, VIEW3D_PT_prt_world, VIEW3D_PT_prt_bake, VIEW3D_PT_prt_display]

@@ -1,0 +1,140 @@
+"""The add-on's settings stored on the scene (saved with the .blend file), with their tooltips.
+
+scene.prt (PRT_PG_scene), scene.prt_world (the world projection's settings and record; the
+coefficients themselves are ID-property arrays, see world.projection), scene.prt_bake and
+scene.prt_display.
+"""
+
+import bpy
+
+from ..bake.settings import MAX_ORDER, MIN_SAMPLES
+from ..world.projection import MAX_ORDER as MAX_WORLD_ORDER
+
+
+class PRT_PG_scene(bpy.types.PropertyGroup):
+    """Root of the add-on's per-scene settings; feature modules add their own groups beside it."""
+
+    show_display: bpy.props.BoolProperty(
+        name="Show PRT",
+        description="Draw baked objects with PRT lighting in the 3D View",
+        default=True,
+    )
+
+
+class PRT_PG_world(bpy.types.PropertyGroup):
+    order: bpy.props.IntProperty(
+        name="Order",
+        description="SH order of the world lighting (order**2 coefficients per colour channel)",
+        default=8,
+        min=1,
+        max=MAX_WORLD_ORDER,
+        soft_max=16,
+    )
+    stored_order: bpy.props.IntProperty(name="Stored Order", description="0: nothing stored", default=0)
+    source_kind: bpy.props.StringProperty(name="Source", description="IMAGE, COLOR or RENDER")
+    world_name: bpy.props.StringProperty(name="World")
+    source_node: bpy.props.StringProperty(name="Node")
+    image_name: bpy.props.StringProperty(name="Image")
+    image_size: bpy.props.IntVectorProperty(name="Image Size", size=2)
+    projected_size: bpy.props.IntVectorProperty(name="Projected Size", size=2)
+    mapping_node: bpy.props.StringProperty(name="Mapping Node")
+    mapping_type: bpy.props.StringProperty(name="Mapping Type")
+    mapping_rotation: bpy.props.FloatVectorProperty(name="Mapping Rotation", size=3, subtype="EULER")
+    rotation_matrix: bpy.props.FloatVectorProperty(
+        name="SH Rotation",
+        description="Q, row-major: world coefficients = rotate(stored coefficients, Q)",
+        size=9,
+        default=(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+    )
+    seconds: bpy.props.FloatProperty(name="Time", unit="TIME_ABSOLUTE")
+    truncation: bpy.props.FloatProperty(
+        name="Truncation",
+        description="Fraction of the L2 luminance energy of the world beyond the stored order",
+        subtype="FACTOR",
+    )
+    diffuse_truncation: bpy.props.FloatProperty(
+        name="Diffuse Truncation",
+        description="Fraction of the L2 luminance energy of unshadowed diffuse shading beyond the stored order",
+        subtype="FACTOR",
+    )
+    message: bpy.props.StringProperty(name="Notes")
+    token: bpy.props.StringProperty(name="Token", description="Changes at every projection")
+
+
+class PRT_PG_bake_settings(bpy.types.PropertyGroup):
+    order: bpy.props.IntProperty(
+        name="Order", description="SH order n: n*n transfer coefficients per vertex",
+        default=4, min=1, max=MAX_ORDER,
+    )
+    samples: bpy.props.IntProperty(
+        name="Samples", description="Directions of the shared direction set (rays per vertex)",
+        default=256, min=MIN_SAMPLES, soft_min=16, max=65536,
+    )
+    direction_set: bpy.props.EnumProperty(
+        name="Directions",
+        items=[
+            ("FIBONACCI", "Fibonacci", "Spherical Fibonacci set, randomly rotated (most accurate)"),
+            ("STRATIFIED", "Stratified", "Jittered equal-area strata"),
+            ("UNIFORM", "Uniform", "Independent uniform random directions"),
+        ],
+        default="FIBONACCI",
+    )
+    seed: bpy.props.IntProperty(name="Seed", description="Seed of the direction set", default=0, min=0)
+    shadows: bpy.props.BoolProperty(
+        name="Shadows", description="Trace visibility (shadowed transfer); off: cosine only",
+        default=True,
+    )
+    self_shadow_only: bpy.props.BoolProperty(
+        name="Self-Shadow Only", description="Only the object itself occludes (no other objects)",
+        default=False,
+    )
+    backend: bpy.props.EnumProperty(
+        name="Backend",
+        items=[
+            ("AUTO", "Auto", "Embree when available, else Blender's BVH tree"),
+            ("EMBREE", "Embree", "embreex (Embree 4), multi-threaded"),
+            ("BVHTREE", "BVH Tree", "mathutils.bvhtree, single-threaded and slower"),
+        ],
+        default="AUTO",
+    )
+    last_report: bpy.props.StringProperty(name="Last Report", default="", options={"SKIP_SAVE"})
+
+
+class PRT_PG_display(bpy.types.PropertyGroup):
+    # No Python get/set/update callbacks here: with them, bpy 4.2 (as a module) crashes at exit
+    # after unregister. The draw reads these every redraw; the batch cache key includes them.
+    albedo_source: bpy.props.EnumProperty(
+        name="Albedo",
+        items=[
+            ("MATERIAL", "Material", "Base colour of each material slot"),
+            ("ATTRIBUTE", "Color Attribute", "A colour attribute of the mesh"),
+            ("WHITE", "White", "No albedo: radiance only"),
+        ],
+        default="MATERIAL",
+    )
+    albedo_attribute: bpy.props.StringProperty(
+        name="Attribute",
+        description="Colour attribute used as albedo (empty: the mesh's active colour attribute)",
+        default="",
+    )
+
+
+CLASSES = [PRT_PG_scene, PRT_PG_world, PRT_PG_bake_settings, PRT_PG_display]
+
+_POINTERS = (
+    ("prt", PRT_PG_scene),
+    ("prt_world", PRT_PG_world),
+    ("prt_bake", PRT_PG_bake_settings),
+    ("prt_display", PRT_PG_display),
+)
+
+
+def register_extra():
+    for name, group in _POINTERS:
+        setattr(bpy.types.Scene, name, bpy.props.PointerProperty(type=group))
+
+
+def unregister_extra():
+    for name, _group in _POINTERS:
+        if hasattr(bpy.types.Scene, name):
+            delattr(bpy.types.Scene, name)

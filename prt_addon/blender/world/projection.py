@@ -1,0 +1,201 @@
+"""The world projected into RGB SH lighting, stored on the scene and rotated live; docs/world.md.
+
+Recognised node trees are read directly (world.nodes):
+
+    [Texture Coordinate.Generated -> Mapping ->] Environment Texture.Color -> Background.Color
+    constant colour -> Background.Color
+
+with the Background strength a constant. The Mapping node's rotation is not applied to the pixels:
+the image is projected in its own frame and the coefficients are rotated (stored unrotated, so a
+rotation change needs no new projection, see current_world_coeffs). Any other world (Sky Texture,
+gradients, mixes, 8-bit images in unusual colour spaces, a Mapping location or a non-uniform
+scale) is rendered by Cycles to an equirectangular image (world.pixels), and that is projected.
+"""
+
+import time
+import uuid
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ...core import projection, resample, rotation, sh
+from .nodes import WorldError, WorldSource, _render_source, analyse_world, live_sh_rotation
+from .pixels import _NeedsRender, read_image_pixels, render_world
+
+
+SH_KEY = "prt_world_sh"  # unrotated (image-frame) coefficients, flat, index 3 * i + channel
+
+
+SH_WORLD_KEY = "prt_world_sh_world"  # world-space coefficients as projected (rotation applied)
+
+
+MAX_ORDER = 32  # the Order property's maximum; (order**2, 3) coefficients
+
+
+@dataclass
+class WorldProjection:
+    order: int
+    image_coeffs: np.ndarray  # (n*n, 3) in the image's own frame (Mapping rotation not applied)
+    rotation: np.ndarray  # 3x3 Q: coeffs = rotation.rotate(image_coeffs, Q)
+    coeffs: np.ndarray  # (n*n, 3) world space
+    source: WorldSource
+    seconds: float = 0.0
+    truncation: float = 0.0
+    diffuse_truncation: float = 0.0
+    source_size: tuple = (0, 0)  # image (width, height) read or rendered
+    projected_size: tuple = (0, 0)  # after reduction
+    warnings: list = field(default_factory=list)
+
+
+def project_pixels(pixels, order):
+    """(coeffs, report, energy, projected (w, h), diffuse truncation) of an equirect image reduced
+    to what order needs. It is projected once at max(order, 32): the first order**2 coefficients
+    are the same, and the higher bands measure what diffuse shading loses beyond the order."""
+    height, width = pixels.shape[:2]
+    h_out, w_out = resample.target_size(height, width, order)
+    reduced, report, energy = resample.reduce_equirect(pixels, h_out, w_out)
+    reference, _ = projection.project_equirect(reduced, max(order, resample.DIFFUSE_REFERENCE_ORDER))
+    diffuse_truncation = resample.diffuse_truncation_fraction(reference, order)
+    return reference[: order * order].copy(), report, energy, (w_out, h_out), diffuse_truncation
+
+
+def project(scene, order, force_render=False):
+    """Project scene.world: a WorldProjection (nothing is stored). Raises WorldError."""
+    try:
+        order = sh.check_order(order)
+    except ValueError as error:
+        raise WorldError(str(error)) from None
+    start = time.perf_counter()
+    source = analyse_world(scene)
+    notes = []
+    if force_render and source.kind != "RENDER":
+        source = _render_source(scene.world, None, "a render was requested")
+    pixels = None
+    if source.kind == "IMAGE":
+        try:
+            pixels = read_image_pixels(source.image)
+        except _NeedsRender as why:
+            source = _render_source(scene.world, None, str(why))
+    truncation = diffuse_truncation = 0.0
+    source_size = projected_size = (0, 0)
+    if source.kind == "COLOR":
+        color = np.asarray(source.color, dtype=np.float64) * source.strength
+        if not np.all(np.isfinite(color)):
+            raise WorldError(f"World '{source.world_name}' has a non-finite colour {tuple(color)}")
+        if np.any(color < 0.0):
+            notes.append(f"negative background colour {tuple(np.round(color, 6))} clamped to 0")
+            color = np.clip(color, 0.0, None)
+        image_coeffs = np.zeros((order * order, 3))
+        image_coeffs[0] = np.sqrt(4.0 * np.pi) * color
+    else:
+        if source.kind == "RENDER":
+            notes.append(f"world rendered with Cycles because {source.reason}")
+            pixels = render_world(scene, resample.needed_height(order))
+        source_size = (pixels.shape[1], pixels.shape[0])
+        image_coeffs, report, energy, projected_size, diffuse_truncation = project_pixels(pixels, order)
+        del pixels
+        if report.repaired:
+            notes.append(f"image pixels repaired: {report.summary()}")
+        truncation = resample.truncation_fraction(image_coeffs, energy)
+        image_coeffs *= source.strength
+    q = source.mapping.sh_rotation() if source.mapping is not None else np.eye(3)
+    coeffs = rotation.rotate(image_coeffs, q)
+    if not np.all(np.isfinite(coeffs)):
+        raise WorldError(f"World '{source.world_name}' gave non-finite lighting")
+    if not np.any(image_coeffs[0] > 0.0):
+        raise WorldError(f"World '{source.world_name}' emits no light (its radiance is zero everywhere)")
+    return WorldProjection(
+        order=order,
+        image_coeffs=image_coeffs,
+        rotation=q,
+        coeffs=coeffs,
+        source=source,
+        seconds=time.perf_counter() - start,
+        truncation=truncation,
+        diffuse_truncation=diffuse_truncation,
+        source_size=source_size,
+        projected_size=projected_size,
+        warnings=notes,
+    )
+
+
+def store(scene, result):
+    """Write a WorldProjection on the scene (ID properties + scene.prt_world), all at once."""
+    settings = scene.prt_world
+    source = result.source
+    scene[SH_KEY] = result.image_coeffs.ravel().tolist()
+    scene[SH_WORLD_KEY] = result.coeffs.ravel().tolist()
+    settings.stored_order = result.order
+    settings.source_kind = source.kind
+    settings.world_name = source.world_name
+    settings.source_node = source.node_name
+    settings.image_name = source.image.name if source.image is not None else ""
+    settings.image_size = result.source_size
+    settings.projected_size = result.projected_size
+    settings.mapping_node = source.mapping.node_name if source.mapping is not None else ""
+    settings.mapping_type = source.mapping.vector_type if source.mapping is not None else ""
+    settings.mapping_rotation = source.mapping.euler if source.mapping is not None else (0.0, 0.0, 0.0)
+    settings.rotation_matrix = result.rotation.ravel().tolist()
+    settings.seconds = result.seconds
+    settings.truncation = result.truncation
+    settings.diffuse_truncation = result.diffuse_truncation
+    settings.message = "; ".join(result.warnings)
+    settings.token = uuid.uuid4().hex
+
+
+def project_and_store(scene, order=None):
+    """Project and store; returns the WorldProjection. On WorldError nothing is changed."""
+    if order is None:
+        order = scene.prt_world.order
+    if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or not 1 <= order <= MAX_ORDER:
+        raise WorldError(f"the SH order must be an integer from 1 to {MAX_ORDER}, got {order!r}")
+    result = project(scene, int(order))
+    store(scene, result)
+    return result
+
+
+_cache = {}
+
+
+def stored_image_coeffs(scene):
+    """(n*n, 3) float64 stored unrotated coefficients, or None."""
+    settings = getattr(scene, "prt_world", None)
+    data = scene.get(SH_KEY) if settings is not None else None
+    n = settings.stored_order if settings is not None else 0
+    if data is None or n < 1 or len(data) != n * n * 3:
+        return None
+    return np.array(data.to_list() if hasattr(data, "to_list") else data, dtype=np.float64).reshape(n * n, 3)
+
+
+def current_rotation(scene):
+    """The SH rotation Q for the world's node tree now (world.nodes.live_sh_rotation: a Mapping
+    node added, removed, muted, relinked or behind a reroute gives what Cycles shows), or the
+    stored one when the world is not an image with a representable Mapping node any more."""
+    settings = scene.prt_world
+    stored = np.array(settings.rotation_matrix, dtype=np.float64).reshape(3, 3)
+    if settings.source_kind != "IMAGE":
+        return stored
+    live = live_sh_rotation(scene.world)
+    return stored if live is None else live
+
+
+def current_world_coeffs(scene):
+    """World-space (n*n, 3) float64 coefficients for the Mapping rotation now, or None.
+
+    Cheap enough to call every redraw: the rotated result is cached per stored projection and
+    rotation.
+    """
+    settings = getattr(scene, "prt_world", None)
+    if settings is None or settings.stored_order < 1:
+        return None
+    q = current_rotation(scene)
+    key = (settings.token, q.tobytes())
+    cached = _cache.get(scene.as_pointer())
+    if cached is not None and cached[0] == key:
+        return cached[1].copy()
+    coeffs = stored_image_coeffs(scene)
+    if coeffs is None:
+        return None
+    result = rotation.rotate(coeffs, q)
+    _cache[scene.as_pointer()] = (key, result)
+    return result.copy()

@@ -1,0 +1,52 @@
+"""The lazily built occluder of a bake: built on the first query, or in the background.
+
+The backends are injected (`builders`: name -> class taking (vertices, triangles)), so this
+module needs no Blender: the Blender layer passes its BVH-tree occluder beside Embree's.
+"""
+
+import threading
+
+
+class LazyOccluder:
+    """The real occluder, built on the first query or in the background after start() (the
+    scene's Embree occluder: its build overlaps the job's set-up); queries wait for the build."""
+
+    def __init__(self, backend, vertices, triangles, builders):
+        self.name = backend
+        self._builder = builders[backend]
+        self.max_threads = int(getattr(self._builder, "max_threads", 1))
+        self._parts = (vertices, triangles)
+        self._real = None
+        self._lock = threading.Lock()
+        self._started = None
+
+    def start(self, pool):
+        """Build in the background on `pool` (Embree only: the BVH build releases the GIL, and
+        attaching the triangles as shared buffers takes microseconds where embreex's copying
+        constructor would hold the GIL for its whole copy) while the caller prepares the rest.
+        A failure there is not raised: the first query builds again and raises it, as without
+        start()."""
+        if self.name == "EMBREE" and self._started is None:
+            self._started = pool.submit(self._build_quietly)
+
+    def _build_quietly(self):
+        try:
+            self._build()
+        except Exception:  # noqa: BLE001 - raised again by the first query
+            pass
+
+    @property
+    def built(self):
+        return self._real is not None
+
+    def _build(self):
+        with self._lock:
+            if self._real is None:
+                vertices, triangles = self._parts
+                self._real = self._builder(vertices, triangles)
+                self._parts = None
+        return self._real
+
+    def occluded(self, origins, directions):
+        real = self._real if self._real is not None else self._build()
+        return real.occluded(origins, directions)
