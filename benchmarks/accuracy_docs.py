@@ -144,7 +144,7 @@ def write(results, docs_dir):
     scenes = results["scenes"]
     L = []
     a = L.append
-    a("# Accuracy: error against run time, stiff lighting, float32 storage (issue 6)\n")
+    a("# Accuracy: error against run time, stiff lighting, float32 storage\n")
     a("Every number on this page is measured by one command (about "
       f"{results.get('wall_seconds', 0) / 60:.0f} min on the project's shared 2-core VM):\n")
     a("```sh\n.venv/bin/python benchmarks/accuracy_report.py          # writes this page, its plots and\n"

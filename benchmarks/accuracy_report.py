@@ -1,4 +1,4 @@
-"""Accuracy report (issue 6): error against run time, direction sets, the bake's error estimate,
+"""Accuracy report: error against run time, direction sets, the bake's error estimate,
 ringing windows on stiff lighting, and the float32 storage error. Writes docs/accuracy.md and
 docs/images/accuracy_*.png; every number in them is measured by this command.
 

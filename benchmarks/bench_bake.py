@@ -1,4 +1,4 @@
-"""Benchmark of the transfer bake (issue 4). Run from the repository root:
+"""Benchmark of the transfer bake. Run from the repository root:
 
     .venv/bin/python benchmarks/bench_bake.py            # full run (about 2 minutes)
     .venv/bin/python benchmarks/bench_bake.py --quick    # smaller scene

@@ -1,4 +1,4 @@
-"""Display benchmark (issue 5): per-frame draw cost of the PRT shader against a flat-shaded draw
+"""Display benchmark: per-frame draw cost of the PRT shader against a flat-shaded draw
 of the same batch, and the cost of a lighting-rotation update per order.
 
     .venv/bin/python benchmarks/bench_display.py [--triangles 1000000] [--frames 15] [--size 512]

@@ -1,4 +1,4 @@
-"""Benchmark of the world projection (issue 3); figures are pasted in docs/world.md.
+"""Benchmark of the world projection; figures are pasted in docs/world.md.
 
 Run: .venv/bin/python benchmarks/bench_world.py [repeats]
 Times (median of `repeats`, default 5) of prt.project_world on each bundled HDRI at orders 3, 8

@@ -124,7 +124,7 @@ def run_scene(args):
     from prt_addon import api
     from prt_addon.blender.display import offscreen
 
-    offscreen.ensure_gpu()  # before building large meshes: it renders a scene (REFERENCE.md)
+    offscreen.ensure_gpu()  # before building large meshes: it renders a scene
     try:
         prt_addon.register()
         scene = build_scene(bundled_hdri_path(args.hdri))

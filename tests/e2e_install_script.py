@@ -69,8 +69,6 @@ def build_scene():
 
 
 def use_it(result, api):
-    from prt_addon.blender.bake import reports as bake_reports
-    from prt_addon.blender.display import draw as display_draw
     import numpy as np
 
     scene = bpy.context.scene
@@ -83,7 +81,8 @@ def use_it(result, api):
     sphere.select_set(True)
     scene.prt_bake.order, scene.prt_bake.samples = 4, 64
     result["bake"] = list(bpy.ops.prt.bake_transfer())
-    bake_ops = sys.modules[MODULE + ".prt_addon.blender.bake_ops"]
+    bake_runner = sys.modules[MODULE + ".prt_addon.blender.bake.runner"]
+    bake_reports = sys.modules[MODULE + ".prt_addon.blender.bake.reports"]
     result["bake_report"] = bake_reports.last_report(scene)
     result["backend"] = sphere.data["prt_bake"]["backend"]
     result["status"] = [api.bake_status(plane), api.bake_status(sphere)]
@@ -98,14 +97,12 @@ def use_it(result, api):
     result["rotate"] = list(bpy.ops.prt.set_light_rotation(rotation=(0.0, 0.0, 1.5)))
     rotated = api.shade(sphere)
     result["rotation_changes_shading"] = float(np.abs(rotated - radiance).max())
-    display = sys.modules[MODULE + ".prt_addon.blender.display"]
-    result["draw_handler_while_enabled"] = display_draw.draw_handle() is not None
-    return display, bake_ops
+    display = sys.modules[MODULE + ".prt_addon.blender.display.draw"]
+    result["draw_handler_while_enabled"] = display.draw_handle() is not None
+    return display, bake_runner
 
 
 def main(zip_path, result_path, mode="embree"):
-    from prt_addon.blender.bake import runner as bake_runner
-    from prt_addon.blender.display import draw as display_draw
     import addon_utils
     import numpy as np
 
@@ -137,8 +134,8 @@ def main(zip_path, result_path, mode="embree"):
                                          if hasattr(bpy.types, f"PRT_OT_{n}")]
     result["handlers_after_disable"] = our_handlers()
     result["timers_after_disable"] = registered_timers(funcs)
-    result["draw_handler_after_disable"] = display_draw.draw_handle() is not None
-    result["running_bakes_after_disable"] = len(bake_runner._running)
+    result["draw_handler_after_disable"] = display.draw_handle() is not None
+    result["running_bakes_after_disable"] = len(bake_ops._running)
     result["uninstall"] = list(bpy.ops.extensions.package_uninstall(repo_index=repos.index("user_default"), pkg_id="prt_lighting"))
     result["files_left"] = os.path.exists(os.path.join(bpy.utils.user_resource("EXTENSIONS"), "user_default", "prt_lighting"))
     with open(result_path, "w") as f:

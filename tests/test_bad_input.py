@@ -1,4 +1,4 @@
-"""Bad input, as a user would give it (issue 7): every case ends in a clear message in Blender's
+"""Bad input, as a user would give it: every case ends in a clear message in Blender's
 report and leaves the .blend exactly as it was.
 
 Operators run through bpy.ops. In background mode an operator that reports ERROR and returns

@@ -1,5 +1,5 @@
-"""Live PRT display (issue 5): shader, offscreen render against api.shade, lighting and object
-rotation, handler cleanup, save/reload. Needs the GPU initialised headless (REFERENCE.md).
+"""Live PRT display: shader, offscreen render against api.shade, lighting and object
+rotation, handler cleanup, save/reload. Needs the GPU initialised headless.
 
 Baked data is written here by a test helper that follows docs/storage.md exactly (unshadowed
 transfer of a sphere = the clamped cosine about the local normal), independent of the bake.
@@ -31,7 +31,7 @@ def write_bake(obj, transfer, order, domain="POINT"):
     names = [f"prt_t{k:02d}" for k in range(count)]
     for name in names:
         mesh.color_attributes.new(name, "FLOAT_COLOR", domain)
-    for k, name in enumerate(names):  # look up by name after all new() calls (REFERENCE.md)
+    for k, name in enumerate(names):  # look up by name after all new() calls
         mesh.attributes[name].data.foreach_set("color", np.ascontiguousarray(padded[:, 4 * k : 4 * k + 4]).ravel())
     mesh["prt_bake"] = {
         "order": order,
@@ -513,7 +513,7 @@ def test_modifier_that_reorders_vertices_draws_the_undeformed_mesh(bpy_module, l
 
 
 def test_world_projection_seam(bpy_module, lit_scene):
-    """With no override the display reads world_projection.current_world_coeffs (issue 3): a constant
+    """With no override the display reads world_projection.current_world_coeffs: a constant
     colour world c lights an unshadowed sphere to radiance c everywhere (white furnace)."""
     from prt_addon.blender.world import projection as world_projection
     import prt_addon.api as api
@@ -590,7 +590,7 @@ def test_save_reload_displays_from_stored_attributes(bpy_module, lit_scene, tmp_
     scene = bpy_module.context.scene
     assert gpu_cache._mesh_cache == {}  # nothing carried over: the display reads the file's data
     assert world_nodes.mapping_rotation_euler(scene.world)[2] == pytest.approx(1.0)
-    set_light(scene, light)  # the injected light is not saved (a projected world is, by issue 3)
+    set_light(scene, light)  # the injected light is not saved (a projected world is)
     obj = bpy_module.data.objects["Sphere"]
     np.testing.assert_allclose(api.shade(obj, scene), shade_before, rtol=1e-6, atol=1e-7)
     after = api.render_view(scene, 128, 128)

@@ -1,4 +1,4 @@
-"""Extreme inputs through the public API (issue 6). Each gives a finite, correct result or a clear
+"""Extreme inputs through the public API. Each gives a finite, correct result or a clear
 report, and nothing crashes. Cases already covered elsewhere are listed in docs/extreme.md.
 
 Radiance checks use a constant white world (L = 1 everywhere): E / pi at a point is then the

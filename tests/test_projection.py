@@ -14,7 +14,7 @@ def test_pixel_solid_angles_sum_to_4pi():
 
 
 def test_blender_convention_pixel_directions():
-    """+X is the image centre, row 0 the nadir, u increases towards -Y (REFERENCE.md formulas)."""
+    """+X is the image centre, row 0 the nadir, u increases towards -Y."""
     height, width = 64, 128
     d = projection.pixel_directions(height, width)
     u = -np.arctan2(d[..., 1], d[..., 0]) / (2 * np.pi) + 0.5

@@ -1,4 +1,4 @@
-"""Stiff lighting (issue 6): HDR suns ring in SH. The default (no window, radiance clamped at 0 by
+"""Stiff lighting: HDR suns ring in SH. The default (no window, radiance clamped at 0 by
 api.shade and the shader) must never show negative or non-finite radiance on the bundled sunny
 HDRIs and on synthetic suns of 0.5 to 5 degrees at 1e4 to 1e6 on a dim background; the choice is
 measured in docs/accuracy.md ("Stiff lighting").

@@ -1,4 +1,4 @@
-"""World lighting projection (issue 3): node trees, images, Mapping rotation, storage.
+"""World lighting projection: node trees, images, Mapping rotation, storage.
 
 Expectations are independent of the code under test where possible: exact constants, analytic
 integrals over half spheres, pixel-exact column shifts for 90-degree turns, and images synthesised

@@ -1,4 +1,4 @@
-"""Projected world lighting against Cycles (issue 3). This is what catches a mirrored or half-turned
+"""Projected world lighting against Cycles. This is what catches a mirrored or half-turned
 lighting, so it is never skipped when bpy is available.
 
 An unoccluded convex object (a 32x16 smooth UV sphere, radius 1, at the origin) is baked by Cycles:

@@ -24,7 +24,7 @@ def gpu_ready():
 
 
 def ensure_gpu():
-    """Initialise the GPU in background mode (REFERENCE.md): gpu.init() where it exists, else
+    """Initialise the GPU in background mode: gpu.init() where it exists, else
     one tiny Workbench render of a temporary scene. Returns True when the gpu module can draw."""
     if gpu_ready():
         return True
@@ -97,7 +97,7 @@ def render_view(scene=None, width=None, height=None, camera=None, objects=None, 
             finally:
                 gpu.state.depth_test_set("NONE")
             buf = fb.read_color(0, 0, width, height, 4, 0, "FLOAT")
-            # The buffer's numpy view has reversed strides (REFERENCE.md): transpose, then reshape.
+            # The buffer's numpy view has reversed strides: transpose, then reshape.
             image = np.asarray(buf).T.reshape(height, width, 4).copy()
     finally:
         offscreen.free()
