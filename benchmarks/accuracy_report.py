@@ -268,7 +268,7 @@ def cap_truth(points, t0_conv, half_angle, value, k=400):
 # --- windows -----------------------------------------------------------------------------------
 
 def windowed(light, kind):
-    from prt_addon.core import windows
+    import windows
 
     n = int(round(math.sqrt(light.shape[0])))
     if kind == "NONE":

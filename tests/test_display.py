@@ -668,7 +668,7 @@ def test_viewport_callback_draws_with_exposure_and_toggle(bpy_module, lit_scene,
     from prt_addon.blender.display import draw as display_draw
     from prt_addon.blender.display import offscreen
 
-    obj = bake_sphere(bpy_module, 4, segments=32, rings=16)
+    bake_sphere(bpy_module, 4, segments=32, rings=16)
     set_light(lit_scene, sun_sky_light(4))
     lit_scene.prt_display.albedo_source = "WHITE"
     reference = api.render_view(lit_scene, 128, 128)

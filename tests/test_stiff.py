@@ -9,7 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from prt_addon.core import analytic, projection, windows
+from benchmarks import windows
+from prt_addon.core import analytic, projection
 
 from conftest import bundled_hdri_path
 

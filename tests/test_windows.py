@@ -17,7 +17,7 @@ from scipy.spatial import cKDTree
 from scipy.special import eval_legendre
 
 from prt_addon.core import sh
-from prt_addon.core.windows import (
+from benchmarks.windows import (
     DEFAULT_TOL,
     apply_window,
     auto_window,

@@ -27,7 +27,10 @@ def baked_objects(scene, view_layer=None, viewport=None):
         if obj.type != "MESH" or storage.RECORD not in obj.data:
             continue
         try:
-            visible = obj.visible_get(view_layer=view_layer, viewport=viewport) if viewport else obj.visible_get(view_layer=view_layer)
+            if viewport:
+                visible = obj.visible_get(view_layer=view_layer, viewport=viewport)
+            else:
+                visible = obj.visible_get(view_layer=view_layer)
         except TypeError:
             visible = obj.visible_get()
         if visible and obj.mode != "EDIT":

@@ -40,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .sh import FOUR_PI, band_of_index, check_order, normalize_directions, order_of, sh_basis
+from prt_addon.core.sh import FOUR_PI, band_of_index, check_order, normalize_directions, order_of, sh_basis
 
 KINDS = ("NONE", "HANNING", "LANCZOS", "LAPLACIAN")
 AUTO_KINDS = ("HANNING", "LANCZOS", "LAPLACIAN")
