@@ -170,16 +170,20 @@ def _parity_rays(bake_ops, objects, samples):
     from prt_addon.blender.bake import scene as bake_scene
     from prt_addon.blender.bake import settings as bake_settings
     from prt_addon.core import mesh as core_mesh
-    job = bake_job.BakeJob(objects, bake_settings.BakeSettings(order=2, samples=samples, backend="EMBREE"))
     import bpy
 
-    parts = bake_scene.scene_parts(bpy.context.evaluated_depsgraph_get())
-    vertices, triangles = core_mesh.concatenate_parts(parts)
-    origins, dirs = [], []
-    for plan in job.plans:
-        for o, d in plan.computation.iter_rays():
-            origins.append(o)
-            dirs.append(d)
+    job = bake_job.BakeJob(objects, bake_settings.BakeSettings(order=2, samples=samples, backend="EMBREE"))
+    try:
+        parts = bake_scene.scene_parts(bpy.context.evaluated_depsgraph_get())
+        vertices, triangles = core_mesh.concatenate_parts(parts)
+        origins, dirs = [], []
+        for plan in job.plans:
+            for o, d in plan.computation.iter_rays():
+                origins.append(o)
+                dirs.append(d)
+    finally:
+        job.close()  # its first slices were already tracing: stop them and their threads
+    assert job._pool._shutdown and all(not t.is_alive() for t in job._pool._threads)
     return vertices, triangles, np.concatenate(origins), np.concatenate(dirs)
 
 

@@ -328,6 +328,7 @@ def test_editing_mapping_node_directly_updates_display(bpy_module, lit_scene):
     order = 4
     obj = bake_sphere(bpy_module, order)
     set_light(lit_scene, sun_sky_light(order))
+    lit_scene.prt_display.albedo_source = "WHITE"
     node = world_nodes.ensure_mapping_node(lit_scene.world)
     node.inputs["Rotation"].default_value = (0.0, 0.0, math.pi / 2)
     assert world_nodes.mapping_rotation_euler(lit_scene.world) == pytest.approx((0.0, 0.0, math.pi / 2))
@@ -336,9 +337,42 @@ def test_editing_mapping_node_directly_updates_display(bpy_module, lit_scene):
     values = api.shade(obj, lit_scene)
     brightest = normals[np.argmax(values[:, 0])]
     assert brightest @ np.array([0.0, -1.0, 0.0]) > 0.95
-    image = api.render_view(lit_scene, 64, 64)
+    # The drawn image turned with the node as api.shade did (a stale rotation would put the
+    # bright side elsewhere and fail this comparison at the vertices).
+    image = api.render_view(lit_scene, 128, 128)
     got, visible = sample_at_vertices(bpy_module, obj, lit_scene, image)
-    assert visible.sum() > 20
+    want = values[visible]
+    err = np.abs(got - want) / (np.abs(want) + 0.05)
+    assert np.median(err) < 0.01, np.median(err)
+
+
+def test_projected_world_turns_through_a_mapping_node_added_by_hand(bpy_module, lit_scene):
+    """The real path, no injected light: an image world projected without a Mapping node, then a
+    Mapping node added and turned by hand. The display, api.shade and api.world_lighting all
+    follow it, and the +X sun of the image lights the sphere from -Y (POINT, +90 deg about Z)."""
+    import prt_addon.api as api
+    from test_world import add_mapping, float_image, image_of, use_image
+
+    order = 4
+    world = lit_scene.world
+    for node in [n for n in world.node_tree.nodes if n.bl_idname == "ShaderNodeTexEnvironment"]:
+        world.node_tree.nodes.remove(node)
+    env = use_image(world, float_image(bpy_module, "sun_sky", image_of(sun_sky_light(order), 64, 128)))
+    api.project_world(lit_scene, order)
+    obj = bake_sphere(bpy_module, order)
+    lit_scene.prt_display.albedo_source = "WHITE"
+    normals = local_positions(obj.data)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    before = api.shade(obj, lit_scene)
+    assert normals[np.argmax(before[:, 0])] @ np.array([1.0, 0.0, 0.0]) > 0.95
+    add_mapping(world, env, euler=(0.0, 0.0, math.pi / 2))
+    values = api.shade(obj, lit_scene)
+    assert normals[np.argmax(values[:, 0])] @ np.array([0.0, -1.0, 0.0]) > 0.95
+    image = api.render_view(lit_scene, 128, 128)
+    got, visible = sample_at_vertices(bpy_module, obj, lit_scene, image)
+    want = values[visible]
+    err = np.abs(got - want) / (np.abs(want) + 0.05)
+    assert np.median(err) < 0.01, np.median(err)
 
 
 def test_object_rotation_equals_opposite_lighting_rotation(bpy_module, lit_scene):
