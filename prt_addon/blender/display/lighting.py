@@ -41,6 +41,7 @@ def set_light_override(scene, coeffs):
 
 def clear_light_overrides():
     _light_overrides.clear()
+    _lights_overrides.clear()
 
 
 def world_light(scene):
@@ -51,6 +52,34 @@ def world_light(scene):
         return override if rot is None else _rotation.rotate(override, rot)
     coeffs = _world.current_world_coeffs(scene)
     return None if coeffs is None else np.asarray(coeffs, dtype=np.float64)
+
+
+_lights_overrides = {}  # scene name -> list of core.lights.Light, image frame
+
+
+def set_lights_override(scene, lights):
+    """Use `lights` (core.lights.Light list, image frame) as the scene's split lights instead
+    of the projected ones; the Mapping rotation still applies. None removes the override."""
+    if lights is None:
+        _lights_overrides.pop(scene.name, None)
+    else:
+        _lights_overrides[scene.name] = list(lights)
+    from .draw import tag_redraw  # (draw imports this module)
+
+    tag_redraw()
+
+
+def world_lights(scene):
+    """The split lights of the scene in world space (core.lights.Light list, the Mapping rotation
+    applied exactly as to the SH), [] when there are none or the split is off."""
+    from ...core import lights as _lights
+
+    override = _lights_overrides.get(scene.name)
+    if override is not None:
+        rot = _nodes.live_sh_rotation(scene.world)
+        return override if rot is None else _lights.rotate_lights(override, rot)
+    current = getattr(_world, "current_world_lights", None)
+    return [] if current is None else current(scene)
 
 
 def light_in_local_frame(light_world, matrix_world, order):
