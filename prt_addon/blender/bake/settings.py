@@ -104,6 +104,30 @@ class BakeReport:
                 f"{self.rays_traced:,} rays, error estimate "
                 f"{100.0 * self.error_estimate_relative:.2f} %")
 
+    def report_lines(self):
+        """The full report in words a user knows (the sidebar's Report panel)."""
+        if not self.ok:
+            lines = [self.headline()]
+        else:
+            engine = {"EMBREE": "Embree", "BVHTREE": "Blender's BVH tree"}.get(
+                self.backend, "no ray needed tracing")
+            lines = [
+                f"Baked {len(self.objects)} object(s): {', '.join(self.objects)}",
+                f"Time: {self.seconds:.2f} s, rays traced with {engine}",
+                f"Order {self.order}: {self.order * self.order} numbers per vertex; "
+                f"{self.samples} directions ({self.direction_set.lower()})",
+                f"Rays traced: {self.rays_traced:,}",
+                f"Rays skipped: {self.rays_skipped:,} ({self.skipped_below_horizon:,} below the surface, "
+                f"{self.skipped_unoccludable:,} with nothing in the way, "
+                f"{self.skipped_shadows_off:,} with shadows off)",
+                f"Noise: about {100.0 * self.error_estimate_relative:.2f} % (the bake's own estimate "
+                "of its sampling error; more samples lower it)",
+            ]
+        if self.note:
+            lines.append(self.note)
+        lines += [f"Skipped '{name}': {reason}" for name, reason in self.skipped]
+        return lines
+
     def summary_lines(self):
         if not self.ok:
             lines = [self.message or ("Bake cancelled" if self.cancelled else "Bake failed")]

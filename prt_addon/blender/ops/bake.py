@@ -3,6 +3,7 @@
 import bpy
 
 from ..bake.job import BakeJob
+from ..bake.presets import PRESETS
 from ..bake.reports import _report_to_operator, _store_report
 from ..bake.runner import TimeSlicedRunner, _running
 from ..bake.settings import BakeError, BakeReport, BakeSettings
@@ -57,4 +58,30 @@ class PRT_OT_bake_transfer(TimeSlicedRunner, bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = [PRT_OT_bake_transfer]
+
+class PRT_OT_bake_preset(bpy.types.Operator):
+    """Set the bake's order and samples to a preset"""
+
+    bl_idname = "prt.bake_preset"
+    bl_label = "Bake Preset"
+    bl_options = {"REGISTER", "UNDO"}
+
+    preset: bpy.props.EnumProperty(
+        name="Preset",
+        description="Order and samples of the bake",
+        items=[(key, label, tip) for key, (label, tip, _order, _samples) in PRESETS.items()],
+        default="GOOD",
+    )
+
+    @classmethod
+    def description(cls, _context, properties):
+        return PRESETS[properties.preset][1]
+
+    def execute(self, context):
+        _label, _tip, order, samples = PRESETS[self.preset]
+        settings = context.scene.prt_bake
+        settings.order, settings.samples = order, samples
+        return {"FINISHED"}
+
+
+CLASSES = [PRT_OT_bake_transfer, PRT_OT_bake_preset]

@@ -2,13 +2,11 @@
 
 import bpy
 
-from ...core import raytrace
 from .. import storage
-from ..bake.reports import last_report
-from ..bake.job import status
-from ..bake.settings import FALLBACK_SLOWDOWN, BakeReport
 from ..display import lighting, shader
 from ..world import nodes
+from .bake_panel import VIEW3D_PT_prt_bake, VIEW3D_PT_prt_bake_options, VIEW3D_PT_prt_bake_report
+from .sidebar import PRTSubPanel
 
 
 class VIEW3D_PT_prt(bpy.types.Panel):
@@ -21,15 +19,6 @@ class VIEW3D_PT_prt(bpy.types.Panel):
     def draw(self, context):
         settings = context.scene.prt
         self.layout.prop(settings, "show_display")
-
-
-class PRTSubPanel:
-    """Placement shared by the feature panels: sub-panels of VIEW3D_PT_prt in the "PRT" tab."""
-
-    bl_space_type = "VIEW_3D"
-    bl_region_type = "UI"
-    bl_category = "PRT"
-    bl_parent_id = "VIEW3D_PT_prt"
 
 
 class VIEW3D_PT_prt_world(PRTSubPanel, bpy.types.Panel):
@@ -55,55 +44,6 @@ class VIEW3D_PT_prt_world(PRTSubPanel, bpy.types.Panel):
                   f"diffuse {100.0 * settings.diffuse_truncation:.2g} %")
         if settings.message:
             col.label(text=settings.message, icon="ERROR")
-
-
-class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
-    bl_idname = "VIEW3D_PT_prt_bake"
-    bl_label = "Bake Transfer"
-
-    def draw(self, context):
-        layout = self.layout
-        settings = context.scene.prt_bake
-        col = layout.column(align=True)
-        col.prop(settings, "order")
-        col.prop(settings, "samples")
-        col.prop(settings, "direction_set")
-        col.prop(settings, "shadows")
-        sub = col.column(align=True)
-        sub.enabled = settings.shadows
-        sub.prop(settings, "self_shadow_only")
-        sub.prop(settings, "backend")
-        if not raytrace.EMBREE_AVAILABLE:
-            if settings.backend == "EMBREE":
-                layout.label(text="Embree is not available here: choose Auto or BVH Tree", icon="ERROR")
-            else:
-                col = layout.column(align=True)
-                col.label(text="Embree (embreex) is not available here:", icon="INFO")
-                col.label(text=f"the BVH tree fallback bakes {FALLBACK_SLOWDOWN}x slower")
-        layout.operator("prt.bake_transfer", text="Bake", icon="RENDER_STILL")
-        stale = []
-        for obj in context.selected_objects[:16]:
-            if obj.type == "MESH":
-                state, reason = status(obj, use_cache=True)
-                if state == "stale":
-                    stale.append((obj.name, reason))
-        obj = context.active_object
-        if obj is not None and obj.type == "MESH":
-            state, reason = status(obj, use_cache=True)
-            icon = {"fresh": "CHECKMARK", "stale": "ERROR", "none": "DOT"}[state]
-            layout.label(text=f"{obj.name}: {state} ({reason})", icon=icon)
-        for name, reason in stale:
-            if obj is None or name != obj.name:
-                layout.label(text=f"{name}: stale ({reason})", icon="ERROR")
-        data = last_report(context.scene)
-        if data:
-            try:
-                report = BakeReport(**{k: v for k, v in data.items() if k in BakeReport.__dataclass_fields__})
-            except (ValueError, TypeError):
-                return
-            box = layout.box()
-            for line in report.summary_lines():
-                box.label(text=line)
 
 
 class VIEW3D_PT_prt_display(PRTSubPanel, bpy.types.Panel):
@@ -140,4 +80,11 @@ class VIEW3D_PT_prt_display(PRTSubPanel, bpy.types.Panel):
             layout.label(text=f"Viewport shows radiance as 'Standard', not '{view.view_transform}'", icon="INFO")
 
 
-CLASSES = [VIEW3D_PT_prt, VIEW3D_PT_prt_world, VIEW3D_PT_prt_bake, VIEW3D_PT_prt_display]
+CLASSES = [
+    VIEW3D_PT_prt,
+    VIEW3D_PT_prt_world,
+    VIEW3D_PT_prt_bake,
+    VIEW3D_PT_prt_bake_options,
+    VIEW3D_PT_prt_bake_report,
+    VIEW3D_PT_prt_display,
+]
