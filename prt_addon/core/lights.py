@@ -1,0 +1,399 @@
+"""Analytic lights split off the compact bright sources of an equirectangular world image.
+
+SH of any practical order cannot hold a sun: texels brighter than a luminance threshold T are
+clamped to T (hue kept), their excess becomes a few disc lights and the clamped image (residual)
+goes to the SH projection; residual + lights is exactly the input (docs/lights.md).
+
+Pixels are (H, W, C) linear RGB laid out like `projection.project_equirect` expects
+(row 0 is the nadir, +X the image centre). Luminance is Rec.709: 0.2126 R + 0.7152 G + 0.0722 B.
+A light's `power` is the RGB excess radiance integrated over solid angle, so a surface facing it
+receives the irradiance `power` and, in the project's units (transfer includes 1/pi), shows the
+radiance power / pi * max(0, n . s) * V. Directions are in the image (world) frame; after a world
+rotation R (direction in world = R @ direction in image frame) use `rotate_lights`.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .projection import ROW_BLOCK, as_rgb_image, column_azimuths, row_elevations
+from .serial_blas import matmul_serial
+
+LUMA = np.array([0.2126, 0.7152, 0.0722])
+MAX_LIGHTS = 8
+MEAN_FACTOR = 8.0  # threshold rule: see auto_threshold
+COMPACT_FRACTION = 0.01
+# Regions holding less of the world's luminance power than this stay in the residual.
+MIN_SHARE = 0.005
+FLOATS_PER_LIGHT = 7  # direction 3, power 3, angle 1
+CHUNK_RAYS = 1 << 16  # rays per occluder call in light_visibility (a few MB)
+
+
+@dataclass
+class Light:
+    """A disc light: unit direction, RGB power (integral of excess radiance), angular radius."""
+
+    direction: np.ndarray
+    power: np.ndarray
+    angle: float
+    solid_angle: float = 0.0
+    texels: int = 0
+    luminance: float = field(init=False)
+
+    def __post_init__(self):
+        self.direction = np.asarray(self.direction, dtype=np.float64).reshape(3)
+        self.power = np.asarray(self.power, dtype=np.float64).reshape(3)
+        self.angle = float(self.angle)
+        self.luminance = float(_luma(self.power))
+
+
+def _texel_geometry(height, width):
+    """Per row: solid angle, integral of cos^2(e) de and of sin(e) cos(e) de; per column: phi.
+
+    A texel's direction integral is integral d dOmega = (A_j 2 sin(h) cos(phi_k),
+    A_j 2 sin(h) sin(phi_k), B_j 2 h) with h = pi / W, A_j = integral cos^2 e de and
+    B_j = integral sin e cos e de over the row (dOmega = cos e de dphi).
+    """
+    _, edges = row_elevations(height)
+    half = np.pi / width
+    solid = 2.0 * half * np.diff(np.sin(edges))
+    cos2 = 0.5 * np.diff(edges) + 0.25 * np.diff(np.sin(2.0 * edges))
+    sincos = 0.5 * np.diff(np.sin(edges) ** 2)
+    return solid, cos2, sincos, column_azimuths(width), half
+
+
+def _luma(values):
+    """Rec.709 luminance of (..., 3) values, channel by channel (a product with LUMA would go to
+    a threaded BLAS gemv, see core.serial_blas)."""
+    return values[..., 0] * LUMA[0] + values[..., 1] * LUMA[1] + values[..., 2] * LUMA[2]
+
+
+def _luminance(rgb):
+    """(H, W) float64 luminance after the projection's pixel policy (NaN, Inf -> 0, negatives
+    -> 0), computed ROW_BLOCK rows at a time so that no full float64 copy of the image is made."""
+    height, width, _ = rgb.shape
+    lum = np.empty((height, width))
+    for start in range(0, height, ROW_BLOCK):
+        block = rgb[start : start + ROW_BLOCK]
+        values = np.fmax(block.astype(np.float64), 0.0)  # fmax maps NaN to 0
+        part = _luma(values)
+        infinite = np.isinf(part)  # only a +Inf channel can make it infinite: repair those texels
+        if infinite.any():
+            part[infinite] = _luma(_repair(block[infinite]))
+        lum[start : start + ROW_BLOCK] = part
+    return lum
+
+
+def _repair(values):
+    """float64 copy with NaN and +-Inf set to 0 and negatives clamped to 0 (projection policy)."""
+    values = np.fmax(np.asarray(values, dtype=np.float64), 0.0)
+    values[np.isinf(values)] = 0.0
+    return values
+
+
+def _world_power(lum, solid):
+    return float(lum.sum(axis=1) @ solid)  # sum of lum * texel solid angle
+
+
+def _threshold(lum, solid, world_power):
+    threshold = MEAN_FACTOR * world_power / (4.0 * np.pi)
+    rows, cols = np.nonzero(lum > threshold)
+    texel_solid = solid[rows]
+    budget = COMPACT_FRACTION * 4.0 * np.pi
+    if texel_solid.sum() <= budget:
+        return threshold
+    values = lum[rows, cols]
+    order = np.argsort(-values, kind="stable")
+    covered = np.cumsum(texel_solid[order])
+    # The first texel that would overflow the budget sets T: everything strictly brighter fits.
+    return max(threshold, float(values[order[np.searchsorted(covered, budget, side="right")]]))
+
+
+def auto_threshold(pixels):
+    """Luminance threshold T above which texels are split off as lights.
+
+    T = max(8 * mean, T_compact): mean is the solid-angle-weighted mean luminance of the image
+    (pixel policy of the projection applied), T_compact the smallest value such that the texels
+    brighter than it cover at most 1 % of the sphere (a cap of 11.5 degrees radius). A texel is a
+    light only if it is 8 times brighter than the average sky, and the lights stay compact. A
+    uniform or one-colour image gives T = 8 * its luminance, so no texel exceeds it.
+    """
+    rgb = as_rgb_image(pixels)
+    lum, solid = _luminance(rgb), _texel_geometry(*rgb.shape[:2])[0]
+    return _threshold(lum, solid, _world_power(lum, solid))
+
+
+def _is_real(value):
+    return not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
+
+
+def _check_arguments(threshold, max_lights, min_share):
+    if not _is_real(min_share) or not 0.0 <= min_share <= 1.0:
+        raise ValueError(f"min_share must be a number from 0 to 1, got {min_share!r}")
+    if isinstance(max_lights, bool) or not isinstance(max_lights, (int, np.integer)) \
+            or not 0 <= max_lights <= MAX_LIGHTS:
+        raise ValueError(f"max_lights must be an integer 0..{MAX_LIGHTS}, got {max_lights!r}")
+    if threshold is not None and not (_is_real(threshold) and 0 <= threshold < np.inf):
+        raise ValueError(f"threshold must be finite and >= 0 (or None), got {threshold!r}")
+    return (None if threshold is None else float(threshold)), int(max_lights)
+
+
+def _sphere_neighbour_pairs(flat, height, width):
+    """Edges (i, j) between bright texels (sorted flat indices): 8-connectivity in the image,
+    joined across the u = 0/1 seam; the texels of the bottom row are all neighbours (they meet at
+    the nadir), likewise the top row, linked here as chains in column order."""
+    rows, cols = np.divmod(flat, width)
+    dense = 16 * len(flat) > height * width
+    if dense:  # a lookup table beats the binary search once the bright set is a large share
+        position = np.full(height * width, -1, dtype=np.int64)
+        position[flat] = np.arange(len(flat))
+    sources, targets = [], []
+    for d_row, d_col in ((0, 1), (1, -1), (1, 0), (1, 1)):
+        inside = np.flatnonzero(rows + d_row < height)
+        wanted = (rows[inside] + d_row) * width + (cols[inside] + d_col) % width
+        if dense:
+            found = position[wanted]
+            hit = found >= 0
+        else:
+            found = np.minimum(np.searchsorted(flat, wanted), len(flat) - 1)
+            hit = flat[found] == wanted
+        sources.append(inside[hit])
+        targets.append(found[hit])
+    for lo, hi in ((0, np.searchsorted(flat, width)),
+                   (np.searchsorted(flat, (height - 1) * width), len(flat))):
+        chain = np.arange(lo, max(lo, hi - 1))
+        sources.append(chain)
+        targets.append(chain + 1)
+    return np.concatenate(sources), np.concatenate(targets)
+
+
+def _connected_components(count, sources, targets):
+    """(count,) region index 0..R-1 of each node, by hooking roots and pointer jumping.
+
+    Invariant parent[x] <= x (so the forest has no cycles). Each round hooks the larger root of
+    every edge that still joins two trees onto the smaller one, then jumps pointers until every
+    node points at its root; the number of trees with outside edges at least halves per round.
+    """
+    parent = np.arange(count)
+    while sources.size:
+        root_s, root_t = parent[sources], parent[targets]
+        apart = root_s != root_t
+        if not apart.any():
+            break
+        sources, targets = sources[apart], targets[apart]
+        parent[np.maximum(root_s[apart], root_t[apart])] = np.minimum(root_s[apart],
+                                                                      root_t[apart])
+        while True:
+            grand = parent[parent]
+            if np.array_equal(grand, parent):
+                break
+            parent = grand
+    roots = np.flatnonzero(parent == np.arange(count))
+    index = np.empty(count, dtype=np.int64)
+    index[roots] = np.arange(len(roots))
+    return index[parent], len(roots)
+
+
+def extract_lights(pixels, threshold=None, max_lights=4, *, min_share=MIN_SHARE):
+    """Split the compact bright sources of an equirect image: -> (residual (H, W, 3), [Light]).
+
+    Texels with luminance above T (threshold, or auto_threshold) are scaled to luminance T
+    (residual = pixel * T / lum, hue kept); the excess pixel - residual is grouped into regions
+    connected on the sphere. The max_lights most powerful regions (by luminance power) become
+    lights, strongest first; the excess of the other regions, of any region holding less than
+    min_share of the image's luminance power, and of a region with no direction (zero first
+    moment) is put back into the residual, so residual + lights is always the input.
+    Each light: power = sum excess * texel solid angle (RGB); direction = normalised first
+    moment m = sum lum_excess * integral(d dOmega) over its texels (the exact power-weighted mean
+    direction of the piecewise-constant excess); angle = radius of the uniform disc with the same
+    mean cosine rho = |m| / luminance power, i.e. cos(angle) = 2 rho - 1.
+
+    The residual has the input's dtype if float32/float64 (else float64); texels outside the
+    lights are copied unchanged (NaN, Inf and negatives are left for the projection to repair).
+    """
+    threshold, max_lights = _check_arguments(threshold, max_lights, min_share)
+    rgb = as_rgb_image(pixels)
+    height, width, _ = rgb.shape
+    dtype = rgb.dtype if rgb.dtype in (np.float32, np.float64) else np.float64
+    residual = np.array(rgb, dtype=dtype)
+    if max_lights == 0:
+        return residual, []
+    solid, cos2, sincos, phi, half = _texel_geometry(height, width)
+    lum = _luminance(rgb)
+    world_power = _world_power(lum, solid)
+    if threshold is None:
+        threshold = _threshold(lum, solid, world_power)
+    flat = np.flatnonzero(lum > threshold)
+    if flat.size == 0:
+        return residual, []
+
+    rows, cols = np.divmod(flat, width)
+    bright = _repair(rgb[rows, cols])
+    kept_values = (bright * (threshold / lum.ravel()[flat])[:, None]).astype(dtype)
+    excess = bright - kept_values
+    texel_solid = solid[rows]
+    # Per texel: RGB power excess * Omega, first moment lum_excess * integral(d dOmega), Omega.
+    columns = np.column_stack([
+        excess * texel_solid[:, None],
+        _luma(excess)[:, None] * np.stack([2.0 * np.sin(half) * cos2[rows] * np.cos(phi[cols]),
+                                           2.0 * np.sin(half) * cos2[rows] * np.sin(phi[cols]),
+                                           2.0 * half * sincos[rows]], axis=1),
+        texel_solid])
+    region, count = _connected_components(len(flat), *_sphere_neighbour_pairs(flat, height, width))
+    sums = np.stack([np.bincount(region, weights=c, minlength=count) for c in columns.T], axis=1)
+    region_power, region_moment, region_solid = sums[:, :3], sums[:, 3:6], sums[:, 6]
+    region_lum = _luma(region_power)
+    region_texels = np.bincount(region, minlength=count)
+    moment_length = np.sqrt(np.einsum("ij,ij->i", region_moment, region_moment))
+    usable = ((region_lum > 0.0) & (region_lum >= min_share * world_power)
+              & (moment_length > 1e-12 * region_lum))
+    ranked = np.argsort(-region_lum, kind="stable")
+    chosen = ranked[usable[ranked]][:max_lights]
+
+    kept_texels = np.isin(region, chosen)
+    residual[rows[kept_texels], cols[kept_texels]] = kept_values[kept_texels]
+
+    lights = []
+    for r in chosen:
+        rho = min(1.0, moment_length[r] / region_lum[r])
+        lights.append(Light(direction=region_moment[r] / moment_length[r], power=region_power[r],
+                            angle=2.0 * np.arcsin(np.sqrt(1.0 - rho)),
+                            solid_angle=float(region_solid[r]), texels=int(region_texels[r])))
+    return residual, lights
+
+
+def lights_to_array(lights):
+    """Flat list of floats for storage: per light direction (3), power (3), angle (1)."""
+    values = [np.concatenate([light.direction, light.power, [light.angle]]) for light in lights]
+    return np.concatenate(values).tolist() if values else []
+
+
+def lights_from_array(values):
+    """Inverse of lights_to_array. solid_angle is the disc's 2 pi (1 - cos angle); texels 0."""
+    values = np.asarray(values, dtype=np.float64).ravel()
+    if values.size % FLOATS_PER_LIGHT or not np.all(np.isfinite(values)):
+        raise ValueError(f"stored lights must be finite, {FLOATS_PER_LIGHT} floats per light "
+                         f"(got {values.size} values)")
+    lights = []
+    for row in values.reshape(-1, FLOATS_PER_LIGHT):
+        length = np.linalg.norm(row[:3])
+        if length == 0.0 or row[6] < 0.0:
+            raise ValueError("a stored light has a zero direction or a negative angle")
+        lights.append(Light(direction=row[:3] / length, power=row[3:6], angle=row[6],
+                            solid_angle=2.0 * np.pi * (1.0 - np.cos(row[6])), texels=0))
+    return lights
+
+
+def rotate_lights(lights, rotation):
+    """Lights with direction R @ direction (R maps the image frame to the world frame, like the
+    rotation applied to the world's SH)."""
+    rotation = np.asarray(rotation, dtype=np.float64).reshape(3, 3)
+    return [Light(direction=rotation @ light.direction, power=light.power.copy(),
+                  angle=light.angle, solid_angle=light.solid_angle, texels=light.texels)
+            for light in lights]
+
+
+def disc_directions(direction, angle, count):
+    """(count, 3) unit directions over the cap of half-angle `angle` about `direction`.
+
+    Stratified in solid angle: the cap is cut into `count` equal-area rings (an odd count gives
+    the innermost ring's sample to the centre), and each ring after that holds a pair of
+    opposite points at its mid-area polar angle, the pairs turning by the golden angle. Their mean
+    is exactly along `direction`; count = 1 is the centre.
+    """
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
+        raise ValueError(f"count must be an integer >= 1, got {count!r}")
+    centre = np.asarray(direction, dtype=np.float64).reshape(3)
+    centre = centre / np.linalg.norm(centre)
+    # Orthonormal tangents (Duff et al. 2017, "Building an orthonormal basis, revisited").
+    x, y, z = centre
+    sign = 1.0 if z >= 0.0 else -1.0
+    a, b = -1.0 / (sign + z), -x * y / (sign + z)
+    tangent = np.array([1.0 + sign * x * x * a, sign * b, -sign * x])
+    bitangent = np.array([b, sign + y * y * a, -y])
+    odd = count % 2
+    pairs = np.arange(count // 2)
+    # Ring k covers the area fractions [(odd + 2k) / count, (odd + 2k + 2) / count] of the cap.
+    fraction = (odd + 2.0 * pairs + 1.0) / count
+    one_minus_cos = fraction * (1.0 - np.cos(angle))
+    sin_theta = np.sqrt(np.maximum(0.0, one_minus_cos * (2.0 - one_minus_cos)))
+    cos_theta = 1.0 - one_minus_cos
+    turn = pairs * np.pi * (3.0 - np.sqrt(5.0))
+    offsets = [np.cos(turn)[:, None] * tangent + np.sin(turn)[:, None] * bitangent]
+    offsets.append(-offsets[0])
+    points = [cos_theta[:, None] * centre + sin_theta[:, None] * o for o in offsets]
+    if odd:
+        points.insert(0, centre[None, :])
+    return np.concatenate(points)
+
+
+def _unit_rows(vectors):
+    v = np.asarray(vectors, dtype=np.float64).reshape(-1, 3)
+    length = np.sqrt(np.einsum("ij,ij->i", v, v))
+    ok = np.isfinite(length) & (length > 1e-12)
+    return np.divide(v, length[:, None], out=np.zeros_like(v), where=ok[:, None])
+
+
+def light_irradiance(normals, lights, visibility=None):
+    """(P, 3) radiance shown under the lights: sum_l power_l / pi * max(0, n . s_l) * V[:, l].
+
+    That is E / pi, the unit of the SH shading sum_i L_i t_i whose transfer is
+    max(0, n . w) / pi * V. visibility: (P, L) fractions in [0, 1], or None for 1.
+    Normals need not be unit; zero normals give 0.
+    """
+    normals = _unit_rows(normals)
+    if not lights:
+        return np.zeros((len(normals), 3))
+    directions = np.stack([light.direction for light in lights])
+    powers = np.stack([light.power for light in lights])
+    weight = np.maximum(0.0, matmul_serial(normals, directions.T)) / np.pi
+    if visibility is not None:
+        visibility = np.asarray(visibility, dtype=np.float64)
+        if visibility.shape != weight.shape:
+            raise ValueError(f"visibility must have shape {weight.shape}, got {visibility.shape}")
+        weight = weight * visibility
+    return matmul_serial(weight, powers)
+
+
+def light_visibility(points, normals, lights, occluder, rays_per_light=16, offset=None):
+    """(P, L) fraction of each light's disc seen from each point, by rays to disc_directions.
+
+    occluder follows the core.raytrace protocol: occluded(origins f32 (N, 3), dirs f32 (N, 3))
+    -> bool (N,). Ray origins are point + offset * unit normal, offset scalar or (P,) as in the
+    transfer bake; None uses the bake's rule with the points standing in for the object:
+    max(1e-4 * bounding-box diagonal, 1e-5 * largest |coordinate|). Disc rays at or below the
+    tangent plane count as blocked (the surface hides them) and are not traced; points whose
+    light centre is below the horizon get 0 (their irradiance is 0 anyway). A light of angle 0
+    is traced with one ray.
+    """
+    if isinstance(rays_per_light, bool) or not isinstance(rays_per_light, (int, np.integer)) \
+            or rays_per_light < 1:
+        raise ValueError(f"rays_per_light must be an integer >= 1, got {rays_per_light!r}")
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    normals = _unit_rows(normals)
+    if len(points) != len(normals):
+        raise ValueError("points and normals must have the same length")
+    if offset is None:
+        extent = np.ptp(points, axis=0) if len(points) else np.zeros(3)
+        biggest = float(np.abs(points).max()) if len(points) else 0.0
+        offset = max(1e-4 * float(np.linalg.norm(extent)), 1e-5 * biggest, 1e-30)
+    offset = np.broadcast_to(np.asarray(offset, dtype=np.float64), (len(points),))
+    origins = points + offset[:, None] * normals
+    visibility = np.zeros((len(points), len(lights)))
+    for index, light in enumerate(lights):
+        rays = disc_directions(light.direction, light.angle, 1 if light.angle == 0 else
+                               int(rays_per_light))
+        facing = np.flatnonzero(matmul_serial(normals, light.direction) > 0.0)
+        step = max(1, CHUNK_RAYS // len(rays))
+        for start in range(0, len(facing), step):
+            chosen = facing[start : start + step]
+            above = matmul_serial(normals[chosen], rays.T) > 0.0  # (n, k)
+            which, ray = np.nonzero(above)
+            free = np.zeros(above.shape)
+            if which.size:
+                blocked = np.asarray(occluder.occluded(
+                    origins[chosen][which].astype(np.float32),
+                    rays[ray].astype(np.float32)), dtype=bool)
+                free[which, ray] = ~blocked
+            visibility[chosen, index] = free.mean(axis=1)
+    return visibility

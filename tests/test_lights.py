@@ -1,0 +1,396 @@
+"""Analytic lights split off bright world texels: extraction, energy, rotation, discs, shading."""
+
+import numpy as np
+import pytest
+from scipy import integrate, ndimage
+
+from prt_addon.core import lights
+from prt_addon.core.projection import pixel_directions, pixel_solid_angles, project_equirect
+from prt_addon.core.sh import sh_basis
+
+HEIGHT, WIDTH = 512, 1024
+Y0 = 1.0 / (2.0 * np.sqrt(np.pi))
+
+
+def unit(azimuth_deg, elevation_deg):
+    a, e = np.radians(azimuth_deg), np.radians(elevation_deg)
+    return np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
+
+
+def angle_between(a, b):
+    return np.degrees(2.0 * np.arcsin(min(1.0, np.linalg.norm(np.asarray(a) - b) / 2.0)))
+
+
+def disc_fractions(height, width, centre, radius, sub=32):
+    """(H, W) fraction of every texel covered by the cap: 1 or 0 away from its edge, and
+    sub x sub samples uniform in (z, phi), i.e. in solid angle, for texels near the edge."""
+    directions = pixel_directions(height, width)
+    distance = np.arccos(np.clip(directions @ centre, -1.0, 1.0))
+    margin = 1.5 * max(np.pi / height, 2.0 * np.pi / width)
+    fraction = (distance < radius - margin).astype(np.float64)
+    rows, cols = np.nonzero(np.abs(distance - radius) <= margin)
+    z_edges = np.sin((np.arange(height + 1) / height - 0.5) * np.pi)
+    phi_step = 2.0 * np.pi / width
+    t = (np.arange(sub) + 0.5) / sub
+    for start in range(0, len(rows), 2048):
+        r, c = rows[start : start + 2048], cols[start : start + 2048]
+        z = z_edges[r, None, None] + (z_edges[r + 1] - z_edges[r])[:, None, None] * t[:, None]
+        phi = np.pi - phi_step * (c[:, None, None] + t[None, :])
+        z, phi = np.broadcast_arrays(z, phi)
+        s = np.sqrt(1.0 - z * z)
+        inside = s * np.cos(phi) * centre[0] + s * np.sin(phi) * centre[1] + z * centre[2] \
+            >= np.cos(radius)
+        fraction[r, c] = inside.mean(axis=(1, 2))
+    return fraction
+
+
+def sky_with_discs(discs, sky=1.0, height=HEIGHT, width=WIDTH):
+    """float32 RGB image: uniform `sky` plus caps (centre, radius, radiance) replacing it."""
+    image = np.full((height, width, 3), sky, dtype=np.float64)
+    for centre, radius, radiance in discs:
+        fraction = disc_fractions(height, width, centre, radius)
+        image += fraction[:, :, None] * (np.asarray(radiance, dtype=np.float64) - sky)
+    return image.astype(np.float32)
+
+
+def cap_solid_angle(radius):
+    return 2.0 * np.pi * (1.0 - np.cos(radius))
+
+
+SUN = unit(30.0, 20.0)
+RADIUS = np.radians(2.0)
+
+
+@pytest.fixture(scope="module")
+def sun_image():
+    return sky_with_discs([(SUN, RADIUS, 1000.0)])
+
+
+def test_renderer_covers_the_analytic_solid_angle():
+    fraction = disc_fractions(HEIGHT, WIDTH, SUN, RADIUS)
+    covered = (fraction * pixel_solid_angles(HEIGHT, WIDTH)[:, None]).sum()
+    assert abs(covered / cap_solid_angle(RADIUS) - 1.0) < 1e-3
+
+
+def test_one_disc_gives_one_light_with_its_power_direction_and_radius(sun_image):
+    threshold = lights.auto_threshold(sun_image)
+    assert 1.0 < threshold < 100.0
+    residual, found = lights.extract_lights(sun_image)
+    assert len(found) == 1
+    light = found[0]
+    assert angle_between(light.direction, SUN) < 0.2
+    expected = (1000.0 - threshold) * cap_solid_angle(RADIUS)
+    np.testing.assert_allclose(light.power, expected, rtol=5e-3)
+    assert abs(light.angle / RADIUS - 1.0) < 0.2
+    assert light.texels > 0 and light.solid_angle > 0.9 * cap_solid_angle(RADIUS)
+    lum = residual.astype(np.float64) @ lights.LUMA
+    assert lum.max() <= threshold * (1 + 1e-6)
+
+
+def test_residual_keeps_the_hue_of_clamped_texels():
+    image = sky_with_discs([(SUN, RADIUS, (2000.0, 1000.0, 250.0))])
+    threshold = 20.0
+    residual, found = lights.extract_lights(image, threshold=threshold)
+    clamped = image.astype(np.float64) @ lights.LUMA > threshold
+    kept = residual[clamped].astype(np.float64)
+    np.testing.assert_allclose(kept @ lights.LUMA, threshold, rtol=1e-6)
+    np.testing.assert_allclose(kept / kept[:, :1], image[clamped] / image[clamped][:, :1],
+                               rtol=1e-5)
+    np.testing.assert_array_equal(residual[~clamped], image[~clamped])
+    ratio = found[0].power / found[0].power[1]
+    np.testing.assert_allclose(ratio, [2.0, 1.0, 0.25], rtol=2e-2)
+
+
+def test_two_discs_120_degrees_apart_give_two_lights():
+    a, b = unit(0.0, 10.0), unit(120.0, 10.0)
+    image = sky_with_discs([(a, RADIUS, 1000.0), (b, RADIUS, 600.0)])
+    _, found = lights.extract_lights(image)
+    assert len(found) == 2
+    assert angle_between(found[0].direction, a) < 0.2
+    assert angle_between(found[1].direction, b) < 0.2
+
+
+def test_disc_across_the_seam_is_one_light():
+    centre = unit(180.0, 10.0)  # phi = pi is u = 0: the disc is split between both image edges
+    image = sky_with_discs([(centre, RADIUS, 1000.0)])
+    assert image[:, 0].max() > 500 and image[:, -1].max() > 500
+    _, found = lights.extract_lights(image)
+    assert len(found) == 1
+    assert angle_between(found[0].direction, centre) < 0.2
+    assert abs(found[0].angle / RADIUS - 1.0) < 0.2
+
+
+@pytest.mark.parametrize("elevation", [89.5, -89.5])
+def test_disc_over_a_pole_is_one_light(elevation):
+    centre = unit(40.0, elevation)
+    image = sky_with_discs([(centre, RADIUS, 1000.0)])
+    _, found = lights.extract_lights(image)
+    assert len(found) == 1
+    assert angle_between(found[0].direction, centre) < 0.2
+    assert abs(found[0].angle / RADIUS - 1.0) < 0.2
+
+
+def test_texels_of_a_pole_row_are_neighbours():
+    image = np.ones((64, 128, 3), np.float32)
+    image[-1, [3, 60, 100]] = 1e4  # three separate texels of the top row: one light at the zenith
+    image[0, [0, 64]] = 1e4
+    _, found = lights.extract_lights(image, threshold=10.0, min_share=0.0)
+    assert len(found) == 2
+    assert found[0].direction[2] > 0.99 and found[1].direction[2] < -0.99
+
+
+def sphere_components_reference(mask):
+    """Partition of the bright texels by scipy's 8-connected labels, then joined across the seam
+    and within each pole row (union-find over the few labels)."""
+    labels, count = ndimage.label(mask, structure=np.ones((3, 3)))
+    parent = list(range(count + 1))
+
+    def find(x):
+        while parent[x] != x:
+            x = parent[x]
+        return x
+
+    def join(a, b):
+        if a and b:
+            parent[find(a)] = find(b)
+
+    height, width = mask.shape
+    for j in range(height):
+        for dj in (-1, 0, 1):
+            if 0 <= j + dj < height:
+                join(labels[j, 0], labels[j + dj, width - 1])
+    for row in (0, height - 1):
+        present = labels[row][labels[row] > 0]
+        for a in present[1:]:
+            join(a, present[0])
+    return np.array([find(x) for x in range(count + 1)])[labels]
+
+
+@pytest.mark.parametrize("density", [0.02, 0.3, 0.6])
+def test_connected_components_match_scipy_on_random_masks(density):
+    rng = np.random.default_rng(3)
+    mask = rng.random((40, 96)) < density
+    flat = np.flatnonzero(mask)
+    region, count = lights._connected_components(
+        len(flat), *lights._sphere_neighbour_pairs(flat, *mask.shape))
+    reference = sphere_components_reference(mask).ravel()[flat]
+    # Same partition: the pairs (ours, reference) are one-to-one.
+    pairs = np.unique(np.stack([region, reference]), axis=1)
+    assert pairs.shape[1] == count == len(np.unique(reference))
+
+
+def test_band0_and_full_sh_are_conserved(sun_image):
+    original, _ = project_equirect(sun_image, 8)
+    residual, found = lights.extract_lights(sun_image)
+    split, _ = project_equirect(residual, 8)
+    power = sum(light.power for light in found)
+    np.testing.assert_allclose(split[0] + power * Y0, original[0], rtol=1e-9)
+    excess = sun_image.astype(np.float64) - residual.astype(np.float64)
+    excess_sh, _ = project_equirect(excess, 8)
+    np.testing.assert_allclose(split + excess_sh, original, rtol=0, atol=1e-9 * original[0].max())
+    # The point light power * y(s) against the excess's true SH at order 8 (a 2 degree disc).
+    point = sh_basis(found[0].direction[None], 8)[0][:, None] * found[0].power[None]
+    error = np.linalg.norm(point - excess_sh) / np.linalg.norm(excess_sh)
+    print(f"point-light approximation of a 2 degree disc at order 8: {error:.2e} relative")
+    assert error < 1e-2
+
+
+@pytest.mark.parametrize("colour", [(1.0, 1.0, 1.0), (0.3, 0.5, 0.9), (0.0, 0.0, 0.0),
+                                    (7e3, 7e3, 7e3)])
+def test_uniform_or_one_colour_image_gives_no_lights(colour):
+    image = np.broadcast_to(np.asarray(colour, np.float32), (HEIGHT, WIDTH, 3)).copy()
+    residual, found = lights.extract_lights(image)
+    assert found == []
+    np.testing.assert_array_equal(residual, image)
+
+
+def test_max_lights_caps_the_count_and_returned_regions_conserve_energy():
+    discs = [(unit(45.0 * k, 15.0 * (k % 3)), RADIUS, 300.0 * (k + 1)) for k in range(5)]
+    image = sky_with_discs(discs)
+    original, _ = project_equirect(image, 3)
+    _, all_found = lights.extract_lights(image, max_lights=8)
+    assert len(all_found) == 5
+    residual, found = lights.extract_lights(image, max_lights=2)
+    assert len(found) == 2
+    for light, disc in zip(found, discs[::-1][:2], strict=True):
+        assert angle_between(light.direction, disc[0]) < 0.2
+    split, _ = project_equirect(residual, 3)
+    power = sum(light.power for light in found)
+    np.testing.assert_allclose(split[0] + power * Y0, original[0], rtol=1e-9)
+    for centre, _, _ in discs[:3]:  # the weaker discs are back in the residual untouched
+        row, col = np.unravel_index(np.argmax(pixel_directions(HEIGHT, WIDTH) @ centre),
+                                    (HEIGHT, WIDTH))
+        np.testing.assert_array_equal(residual[row, col], image[row, col])
+    residual, found = lights.extract_lights(image, max_lights=0)
+    assert found == []
+    np.testing.assert_array_equal(residual, image)
+
+
+def test_min_share_drops_negligible_regions_into_the_residual():
+    image = sky_with_discs([(SUN, RADIUS, 1000.0), (unit(-90.0, 0.0), np.radians(0.5), 100.0)])
+    _, found = lights.extract_lights(image)
+    assert len(found) == 1
+    _, found = lights.extract_lights(image, min_share=0.0)
+    assert len(found) == 2
+
+
+@pytest.mark.parametrize("kwargs", [
+    {"threshold": float("nan")}, {"threshold": -1.0}, {"threshold": float("inf")},
+    {"threshold": "10"}, {"max_lights": 9}, {"max_lights": -1}, {"max_lights": 2.5},
+    {"max_lights": True}, {"min_share": -0.1}, {"min_share": float("nan")},
+])
+def test_bad_arguments_raise_value_error(kwargs):
+    with pytest.raises(ValueError):
+        lights.extract_lights(np.ones((8, 16, 3), np.float32), **kwargs)
+
+
+def test_bad_pixels_follow_the_projection_policy(sun_image):
+    image = sun_image.copy()
+    image[10, 10] = np.nan
+    image[20, 20, 1] = np.inf
+    image[30, 30, 0] = -5.0
+    residual, found = lights.extract_lights(image)
+    assert len(found) == 1
+    assert np.isnan(residual[10, 10]).all() and np.isinf(residual[20, 20, 1])
+    original, _ = project_equirect(image, 1)
+    split, _ = project_equirect(residual, 1)
+    np.testing.assert_allclose(split[0] + found[0].power * Y0, original[0], rtol=1e-9)
+
+
+def rotation_z(angle):
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def test_rotating_lights_matches_rotating_the_image():
+    image = sky_with_discs([(unit(30.0, 40.0), RADIUS, 1000.0), (unit(-100.0, -20.0), RADIUS,
+                                                                  500.0)])
+    rolled = np.roll(image, WIDTH // 4, axis=1)
+    # Rolling the columns by W/4 moves what was at azimuth phi to phi - 90 degrees.
+    rotation = rotation_z(-np.pi / 2)
+    directions = pixel_directions(HEIGHT, WIDTH)
+    np.testing.assert_allclose(np.roll(directions, WIDTH // 4, axis=1) @ rotation.T, directions,
+                               atol=1e-12)
+    _, found = lights.extract_lights(image)
+    _, found_rolled = lights.extract_lights(rolled)
+    rotated = lights.rotate_lights(found, rotation)
+    assert len(rotated) == len(found_rolled) == 2
+    for a, b in zip(rotated, found_rolled, strict=True):
+        np.testing.assert_allclose(a.direction, b.direction, atol=1e-9)
+        np.testing.assert_allclose(a.power, b.power, rtol=1e-9)
+        assert abs(a.angle - b.angle) < 1e-9
+
+
+def test_lights_array_round_trip(sun_image):
+    _, found = lights.extract_lights(sun_image)
+    values = lights.lights_to_array(found)
+    assert isinstance(values, list) and len(values) == 7 * len(found)
+    back = lights.lights_from_array(values)
+    for a, b in zip(found, back, strict=True):
+        np.testing.assert_allclose(a.direction, b.direction, atol=1e-15)
+        np.testing.assert_array_equal(a.power, b.power)
+        assert a.angle == b.angle
+    assert lights.lights_from_array([]) == [] and lights.lights_to_array([]) == []
+    with pytest.raises(ValueError):
+        lights.lights_from_array(values[:-1])
+    with pytest.raises(ValueError):
+        lights.lights_from_array([np.nan] * 7)
+
+
+@pytest.mark.parametrize("count", [1, 2, 7, 16, 1000])
+def test_disc_directions_fill_the_cap_around_the_centre(count):
+    centre = unit(-70.0, 35.0)
+    angle = np.radians(3.0)
+    dirs = lights.disc_directions(centre, angle, count)
+    assert dirs.shape == (count, 3)
+    np.testing.assert_allclose(np.linalg.norm(dirs, axis=1), 1.0, atol=1e-14)
+    assert np.all(dirs @ centre >= np.cos(angle) - 1e-14)
+    mean = dirs.mean(axis=0)
+    np.testing.assert_allclose(mean / np.linalg.norm(mean), centre, atol=1e-14)
+    if count == 1:
+        np.testing.assert_allclose(dirs[0], centre, atol=1e-15)
+    if count == 1000:  # uniform in solid angle: half of them inside the half-area cap
+        inner = dirs @ centre >= 1.0 - 0.5 * (1.0 - np.cos(angle))
+        assert abs(inner.mean() - 0.5) <= 1.0 / count
+
+
+class HalfPlane:
+    """Occluder: the half-plane z = 1, y > 0 (the raytrace protocol, in numpy)."""
+
+    def occluded(self, origins, directions):
+        assert origins.dtype == np.float32 and directions.dtype == np.float32
+        o, d = origins.astype(np.float64), directions.astype(np.float64)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (1.0 - o[:, 2]) / d[:, 2]
+        return (d[:, 2] > 0) & (t > 0) & (o[:, 1] + t * d[:, 1] > 0)
+
+
+def half_plane_free_fraction(y0, angle):
+    """Seen from (0, y0, 0) the half-plane hides the zenith cap's directions with
+    tan(theta) sin(phi) > -y0; the phi measure of sin(phi) > t is pi - 2 asin(t)."""
+    def hidden(theta):
+        t = np.clip(-y0 / np.tan(theta), -1.0, 1.0) if theta > 0 else np.sign(-y0)
+        return np.sin(theta) * (np.pi - 2.0 * np.arcsin(t))
+    value, _ = integrate.quad(hidden, 0.0, angle, limit=200, points=[abs(np.arctan(y0))])
+    return 1.0 - value / cap_solid_angle(angle)
+
+
+def test_light_visibility_of_a_partly_hidden_disc():
+    angle = np.radians(5.0)
+    light = lights.Light(direction=[0.0, 0.0, 1.0], power=[1.0, 1.0, 1.0], angle=angle)
+    y0 = np.array([-0.2, -0.05, -0.02, 0.0, 0.03, 0.07, 0.2])
+    points = np.stack([np.zeros_like(y0), y0, np.zeros_like(y0)], axis=1)
+    normals = np.tile([0.0, 0.0, 1.0], (len(y0), 1))
+    expected = np.array([half_plane_free_fraction(y, angle) for y in y0])
+    np.testing.assert_allclose(expected[[0, 3, -1]], [1.0, 0.5, 0.0], atol=1e-12)
+    # A straight edge across N stratified samples: error ~ N^(-3/4) (0.016 at 256, 0.006 at 1024).
+    for rays, tolerance in ((256, 0.03), (1024, 0.012)):
+        seen = lights.light_visibility(points, normals, [light], HalfPlane(), rays_per_light=rays)
+        assert seen.shape == (len(y0), 1)
+        np.testing.assert_allclose(seen[:, 0], expected, atol=tolerance)
+
+
+class Nothing:
+    def occluded(self, origins, directions):
+        return np.zeros(len(origins), dtype=bool)
+
+
+def test_light_visibility_at_the_horizon():
+    angle = np.radians(6.0)
+    grazing = lights.Light(direction=unit(0.0, 2.0), power=[1.0] * 3, angle=angle)
+    below = lights.Light(direction=unit(0.0, -1.0), power=[1.0] * 3, angle=angle)
+    sharp = lights.Light(direction=unit(0.0, 30.0), power=[1.0] * 3, angle=0.0)
+    seen = lights.light_visibility(np.zeros((1, 3)), [[0.0, 0.0, 1.0]], [grazing, below, sharp],
+                                   Nothing(), rays_per_light=512)
+    # Part of the grazing disc is below the tangent plane: the free fraction is the cap's share
+    # above it, estimated independently with random points on the cap.
+    rng = np.random.default_rng(1)
+    cos_theta = 1.0 - rng.random(200_000) * (1.0 - np.cos(angle))
+    phi = rng.random(200_000) * 2.0 * np.pi
+    sin_theta = np.sqrt(1.0 - cos_theta**2)
+    elevation = np.radians(2.0)  # z of a cap point about the axis (cos e, 0, sin e)
+    z = cos_theta * np.sin(elevation) + sin_theta * np.cos(phi) * np.cos(elevation)
+    assert abs(seen[0, 0] - (z > 0).mean()) < 0.02
+    assert seen[0, 1] == 0.0 and seen[0, 2] == 1.0
+
+
+def test_light_irradiance_closed_form_and_texel_sum(sun_image):
+    residual, found = lights.extract_lights(sun_image)
+    rng = np.random.default_rng(5)
+    normals = rng.normal(size=(200, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    shown = lights.light_irradiance(normals, found)
+    closed = found[0].power[None] / np.pi * np.maximum(0.0, normals @ found[0].direction)[:, None]
+    np.testing.assert_allclose(shown, closed, rtol=1e-12, atol=1e-12)
+    visibility = rng.random((200, 1))
+    np.testing.assert_allclose(lights.light_irradiance(normals, found, visibility),
+                               closed * visibility, rtol=1e-12, atol=1e-12)
+    # Same unit as the transfer max(0, n . w) / pi: the excess summed texel by texel.
+    excess = (sun_image.astype(np.float64) - residual) * pixel_solid_angles(HEIGHT, WIDTH)[:, None,
+                                                                                             None]
+    dirs = pixel_directions(HEIGHT, WIDTH).reshape(-1, 3)
+    facing = normals @ found[0].direction > 0.2
+    brute = np.maximum(0.0, normals[facing] @ dirs.T) / np.pi @ excess.reshape(-1, 3)
+    np.testing.assert_allclose(shown[facing], brute, rtol=2e-3)
+    assert np.all(lights.light_irradiance(np.zeros((3, 3)), found) == 0.0)
+    assert lights.light_irradiance(normals, []).shape == (200, 3)
