@@ -87,6 +87,15 @@ def test_one_disc_gives_one_light_with_its_power_direction_and_radius(sun_image)
     assert lum.max() <= threshold * (1 + 1e-6)
 
 
+def test_rgba_and_rgb_give_the_same_lights(sun_image):
+    rgba = np.concatenate([sun_image, np.full(sun_image.shape[:2] + (1,), 0.5, np.float32)], 2)
+    residual, found = lights.extract_lights(rgba)
+    residual_rgb, found_rgb = lights.extract_lights(sun_image)
+    assert residual.shape == sun_image.shape and residual.dtype == np.float32
+    np.testing.assert_array_equal(residual, residual_rgb)
+    np.testing.assert_array_equal(found[0].power, found_rgb[0].power)
+
+
 def test_residual_keeps_the_hue_of_clamped_texels():
     image = sky_with_discs([(SUN, RADIUS, (2000.0, 1000.0, 250.0))])
     threshold = 20.0
@@ -166,10 +175,19 @@ def sphere_components_reference(mask):
     return np.array([find(x) for x in range(count + 1)])[labels]
 
 
-@pytest.mark.parametrize("density", [0.02, 0.3, 0.6])
+def serpentine(height, width):
+    """One long snake of texels (rows joined at alternating ends, away from the seam)."""
+    mask = np.zeros((height, width), dtype=bool)
+    mask[2:-2:2, 2:-2] = True
+    mask[3:-2:4, -3] = True
+    mask[5:-2:4, 2] = True
+    return mask
+
+
+@pytest.mark.parametrize("density", [0.02, 0.3, 0.6, "serpentine"])
 def test_connected_components_match_scipy_on_random_masks(density):
     rng = np.random.default_rng(3)
-    mask = rng.random((40, 96)) < density
+    mask = serpentine(60, 96) if density == "serpentine" else rng.random((40, 96)) < density
     flat = np.flatnonzero(mask)
     region, count = lights._connected_components(
         len(flat), *lights._sphere_neighbour_pairs(flat, *mask.shape))
