@@ -18,10 +18,36 @@ import traceback
 
 import bpy
 
+# Every check, in the order printed. real_blender_check.sh reads this tuple from the source (it
+# fills in the last one from Blender's output) so that it can fail all of them when there is no
+# result at all; a failed set-up (no numpy, zip not installed, extension not enabled) fails all.
+CHECKS = (
+    "extension installed and enabled",
+    "embreex imports",
+    "shared buffers used, same answers as embreex's copy",
+    "invoke() starts a modal bake",
+    "the modal bake finishes with Embree",
+    "no worker thread left after the bake",
+    "one undo removes the whole bake",
+    "redo brings it back unchanged",
+    "the world projects and the display draws both baked objects",
+    "the sidebar's PRT tab draws",
+    "progress advances between timer events (the UI runs)",
+    "Esc cancels within 1 s",
+    "a cancelled bake leaves the attributes as they were",
+    "no worker thread left after Esc",
+    "no exception",
+    "no Python traceback in Blender's output",
+)
+
 argv = sys.argv[sys.argv.index("--") + 1:]
 ZIP, RESULT = argv[0], argv[1]
 MODULE = "bl_ext.user_default.prt_lighting"
 result = {"blender": bpy.app.version_string, "python": sys.version.split()[0], "log": []}
+
+
+class SetupError(Exception):
+    """The extension could not be installed and enabled: every check fails with this message."""
 
 
 def log(*args):
@@ -65,11 +91,40 @@ def bake_threads():
     return sorted(t.name for t in threading.enumerate() if t.name.startswith("prt-bake"))
 
 
+def install():
+    """Install the zip and enable the extension as a user would; SetupError when that fails."""
+    import importlib
+
+    try:
+        import numpy  # noqa: F401  (Debian's Blender only recommends python3-numpy)
+    except ImportError as e:
+        raise SetupError(f"Blender's Python has no numpy: {e}") from e
+    try:
+        result["install"] = list(bpy.ops.extensions.package_install_files(
+            filepath=ZIP, repo="user_default", enable_on_install=True))
+    except Exception as e:  # noqa: BLE001  (an operator's error report arrives as RuntimeError)
+        raise SetupError(f"installing {os.path.basename(ZIP)} failed: {e}".strip()) from e
+    if result["install"] != ["FINISHED"]:
+        raise SetupError(f"installing {os.path.basename(ZIP)} returned {result['install']}")
+    if MODULE not in bpy.context.preferences.addons:
+        # Enabling once more, only to catch the error that the install's enabling printed.
+        import addon_utils
+
+        errors = []
+        addon_utils.enable(MODULE, default_set=True, handle_error=errors.append)
+        why = f"{type(errors[0]).__name__}: {errors[0]}" if errors else f"{MODULE} is not in the add-ons"
+        raise SetupError(f"package_install_files returned FINISHED, but the extension did not enable ({why})")
+    try:
+        importlib.import_module(f"{MODULE}.prt_addon.core.raytrace")
+    except Exception as e:  # noqa: BLE001
+        raise SetupError(f"the enabled extension does not import: {type(e).__name__}: {e}") from e
+    result["enabled"] = True
+
+
 def setup():
     import numpy as np
 
-    result["install"] = list(bpy.ops.extensions.package_install_files(
-        filepath=ZIP, repo="user_default", enable_on_install=True))
+    install()
     raytrace = mod("core.raytrace")
     buffers = mod("core.embree_buffers")
     result["embree_available"] = bool(raytrace.EMBREE_AVAILABLE)
@@ -133,13 +188,17 @@ def start_bake():
 
 
 def running_job():
-    ops = list(mod("blender.bake_ops")._running)
+    ops = list(mod("blender.bake.runner")._running)
     return ops[0]._bake if ops else None
 
 
 def tick():
     try:
         return step()
+    except SetupError as e:
+        result["setup_error"] = str(e)
+        finish()
+        return None
     except Exception:  # noqa: BLE001
         result["exception"] = traceback.format_exc()
         finish()
@@ -169,7 +228,7 @@ def step():
         result["threads_during_bake"] = bake_threads()
         state["t"] = time.perf_counter()
         return 0.02
-    bake_ops = mod("blender.bake_ops")
+    bake_reports = mod("blender.bake.reports")
     if phase == "bake":
         job = running_job()
         if job is not None:
@@ -177,7 +236,7 @@ def step():
             return 0.02
         result["bake_seconds"] = time.perf_counter() - state["t"]
         result["progress_samples"] = state["fractions"]
-        result["report"] = bake_ops.last_report(bpy.context.scene)
+        result["report"] = bake_reports.last_report(bpy.context.scene)
         result["after_bake"] = prt_bytes()
         result["threads_after_bake"] = bake_threads()
         with bpy.context.temp_override(**window_context()):
@@ -225,9 +284,10 @@ def step():
         state["t"] = time.perf_counter()
         return 1.5
     if phase == "display":
-        display = mod("blender.display")
-        result["display_handler"] = display.draw_handle() is not None
-        result["display_meshes_drawn"] = len(display._mesh_cache)
+        display_draw = mod("blender.display.draw")
+        gpu_cache = mod("blender.display.gpu_cache")
+        result["display_handler"] = display_draw.draw_handle() is not None
+        result["display_meshes_drawn"] = len(gpu_cache._mesh_cache)
         with bpy.context.temp_override(**window_context()):
             result["rotate"] = list(bpy.ops.prt.set_light_rotation(rotation=(0.0, 0.0, 2.0)))
         window_context()["area"].tag_redraw()
@@ -265,7 +325,7 @@ def step():
             return 0.02
         time.sleep(0.2)
         result["cancel_seconds_after_esc"] = time.perf_counter() - state["esc_sent"]
-        result["cancel_report"] = bake_ops.last_report(bpy.context.scene)
+        result["cancel_report"] = bake_reports.last_report(bpy.context.scene)
         result["after_cancel"] = prt_bytes()
         result["threads_after_cancel"] = bake_threads()
         finish()
@@ -273,34 +333,44 @@ def step():
     return None
 
 
+def same(a, b):
+    """a == b, where both were recorded (a phase that never ran recorded neither)."""
+    return a is not None and b is not None and a == b
+
+
 def verdict():
     r = result
     bake_attrs = {k for mesh in r.get("after_bake", {}).values() for k in mesh if k != "record"}
+    long_samples = r.get("progress_samples_long_bake", [])
     checks = {
-        "extension installed": r.get("install") == ["FINISHED"],
+        "extension installed and enabled": r.get("install") == ["FINISHED"] and bool(r.get("enabled")),
         "embreex imports": bool(r.get("embree_available")),
         "shared buffers used, same answers as embreex's copy": r.get("geometry") == ["SHARED", "COPIED"]
         and bool(r.get("shared_vs_copied_equal")),
         "invoke() starts a modal bake": r.get("invoke") == ["RUNNING_MODAL"],
         "the modal bake finishes with Embree": bool(r.get("report", {}).get("ok"))
         and r.get("report", {}).get("backend") == "EMBREE" and len(bake_attrs) == 4
-        and all(mesh["record"] is not None for mesh in r.get("after_bake", {}).values()),
+        and bool(r.get("after_bake")) and all(mesh["record"] is not None for mesh in r["after_bake"].values()),
         "no worker thread left after the bake": r.get("threads_after_bake") == [],
-        "one undo removes the whole bake": r.get("after_undo") == r.get("before"),
-        "redo brings it back unchanged": r.get("after_redo") == r.get("after_bake"),
+        "one undo removes the whole bake": same(r.get("after_undo"), r.get("before"))
+        and same(r.get("undo"), ["FINISHED"]),
+        "redo brings it back unchanged": same(r.get("after_redo"), r.get("after_bake"))
+        and same(r.get("redo"), ["FINISHED"]),
         "the world projects and the display draws both baked objects":
             r.get("project") == ["FINISHED"] and bool(r.get("display_handler"))
             and r.get("display_meshes_drawn") == 2 and r.get("rotate") == ["FINISHED"],
         "the sidebar's PRT tab draws": r.get("sidebar_tab") == "PRT",
         "progress advances between timer events (the UI runs)":
-            len(r.get("progress_samples_long_bake", [])) >= 3
-            and all(a < b for a, b in zip(r["progress_samples_long_bake"], r["progress_samples_long_bake"][1:])),
+            len(long_samples) >= 3 and all(a < b for a, b in zip(long_samples, long_samples[1:])),
         "Esc cancels within 1 s": bool(r.get("cancel_report", {}).get("cancelled"))
         and r.get("cancel_seconds_after_esc", 99) < 1.0,
-        "a cancelled bake leaves the attributes as they were": r.get("after_cancel") == r.get("after_bake"),
+        "a cancelled bake leaves the attributes as they were": same(r.get("after_cancel"), r.get("after_bake")),
         "no worker thread left after Esc": r.get("threads_after_cancel") == [],
-        "no exception": "exception" not in r,
+        "no exception": "exception" not in r and "setup_error" not in r,
     }
+    assert list(checks) == list(CHECKS[:-1]), "verdict() and CHECKS name different checks"
+    if "setup_error" in r:  # nothing was checked: no check passes, however its test reads
+        checks = dict.fromkeys(checks, False)
     r["checks"] = checks
     r["passed"] = all(checks.values())
 

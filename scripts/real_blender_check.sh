@@ -5,24 +5,68 @@
 #
 #   sudo bash scripts/real_blender_check.sh [WORK_DIR]     # default WORK_DIR: build/real-blender
 #
-# The Blender is Debian 13's package (Blender 4.3), installed with Xvfb into a debootstrap folder
-# in WORK_DIR (~1.5 GB, about 2 minutes the first time, reused afterwards); the zip is built from
+# The Blender is Debian 13's package (Blender 4.3), installed with python3-numpy (only a
+# recommendation of the package), Xvfb, ImageMagick and procps into a debootstrap folder in
+# WORK_DIR (~1.5 GB, about 2 minutes the first time, reused afterwards); the zip is built from
 # this checkout (the .venv of scripts/setup_venv.sh). Needs root (debootstrap, chroot, mounts)
-# and the Debian package registry. Not part of .ci/run. Prints one line per check, saves X
-# screenshots of the run in WORK_DIR/shots and exits 1 if a check fails.
+# and the Debian package registry. Not part of .ci/run. Prints one line per check (the checks are
+# the CHECKS of real_blender_check.py), saves X screenshots of the run in WORK_DIR/shots and exits
+# 1 if a check fails. When the set-up fails (no Blender, the zip not built or not installed, the
+# extension not enabled) every check is printed as failed with the set-up error.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 work=$(mkdir -p "${1:-$root/build/real-blender}" && cd "${1:-$root/build/real-blender}" && pwd)
 chroot_dir=$work/trixie
 inside=/root/prt-check
+packages="blender python3-numpy xvfb xauth imagemagick procps"
 
-if [ ! -x "$chroot_dir/usr/bin/blender" ]; then
-  command -v debootstrap >/dev/null || apt-get install -y -q debootstrap
-  debootstrap --variant=minbase --include=ca-certificates trixie "$chroot_dir"
-  cp /etc/resolv.conf "$chroot_dir/etc/resolv.conf"
-  chroot "$chroot_dir" bash -c "apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q \
-    --no-install-recommends blender xvfb xauth imagemagick"
+# Prints every check with its verdict (all failed when a set-up error is given) and ends the
+# script: exit 0 only when every check passed.
+report() {
+  python3 - "$root/scripts/real_blender_check.py" "$work" "$@" <<'PY' || exit 1
+import ast, glob, json, os, shutil, sys
+source, work, setup_error = sys.argv[1], sys.argv[2], " ".join(sys.argv[3:])
+tree = ast.parse(open(source).read())
+names = next(ast.literal_eval(node.value) for node in tree.body if isinstance(node, ast.Assign)
+             and any(getattr(t, "id", None) == "CHECKS" for t in node.targets))
+path = os.path.join(work, "result.json")
+r = json.load(open(path)) if not setup_error and os.path.isfile(path) else {}
+r.setdefault("checks", {})
+setup_error = setup_error or r.get("setup_error", "")
+log_path = os.path.join(work, "blender.log")
+log = open(log_path, errors="replace").read() if os.path.isfile(log_path) else ""
+r["checks"]["no Python traceback in Blender's output"] = bool(log) and "Traceback" not in log
+checks = {name: not setup_error and r["checks"].get(name) is True for name in names}
+# The screen 1 s after the display was turned on and after the lighting was turned.
+shots = sorted((float(os.path.basename(p)[7:-4]), p) for p in glob.glob(os.path.join(work, "shots", "screen_*.png")))
+for key, name in (("display_on_at", "display_on.png"), ("rotated_at", "display_rotated.png")):
+    later = [p for t, p in shots if key in r and t >= r[key] + 1.0]
+    if later:
+        shutil.copy(later[0], os.path.join(work, name))
+if "blender" in r:
+    print(f"Blender {r['blender']} (Python {r['python']}); Embree bound from {r.get('binding_library')}")
+for name, ok in checks.items():
+    print(("PASS  " if ok else "FAIL  ") + name + ("" if ok or not setup_error else f"  (set-up failed: {setup_error})"))
+if "exception" in r:
+    print(r["exception"])
+print(f"{sum(checks.values())}/{len(checks)} checks passed")
+if shots:
+    print(f"screenshots: {work}/display_on.png, {work}/display_rotated.png, {work}/shots/")
+sys.exit(0 if checks and all(checks.values()) else 1)
+PY
+  exit 0
+}
+
+rm -f "$work/result.json" "$work/blender.log" "$work"/display_*.png
+if [ ! -x "$chroot_dir/usr/bin/blender" ] || ! chroot "$chroot_dir" dpkg -s $packages >/dev/null 2>&1; then
+  { command -v debootstrap >/dev/null || apt-get install -y -q debootstrap; } &&
+    { [ -x "$chroot_dir/usr/bin/apt-get" ] && [ ! -d "$chroot_dir/debootstrap" ] || debootstrap --variant=minbase --include=ca-certificates trixie "$chroot_dir"; } &&
+    cp /etc/resolv.conf "$chroot_dir/etc/resolv.conf" &&
+    chroot "$chroot_dir" bash -c "apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q \
+      --no-install-recommends $packages" ||
+    report "installing Blender ($packages) into $chroot_dir failed"
 fi
+[ -x "$chroot_dir/usr/bin/blender" ] || report "no Blender in $chroot_dir (/usr/bin/blender)"
 
 mounted=()
 cleanup() {
@@ -40,10 +84,13 @@ for fs in proc dev sys; do
   fi
 done
 
-bash "$root/scripts/setup_venv.sh" >/dev/null
+bash "$root/scripts/setup_venv.sh" >/dev/null || report "scripts/setup_venv.sh failed"
 rm -rf "$work/dist"
-"$root/.venv/bin/python" "$root/scripts/build_extension.py" --output-dir "$work/dist" --platforms linux-x64 >/dev/null
-zip_name=$(basename "$(ls "$work"/dist/*linux_x64.zip)")
+"$root/.venv/bin/python" "$root/scripts/build_extension.py" --output-dir "$work/dist" --platforms linux-x64 >/dev/null ||
+  report "building the extension zip failed (scripts/build_extension.py)"
+zips=("$work"/dist/*linux_x64.zip)
+[ -f "${zips[0]}" ] || report "scripts/build_extension.py wrote no *linux_x64.zip"
+zip_name=$(basename "${zips[0]}")
 rm -rf "$chroot_dir$inside" "$chroot_dir/root/.config/blender" "$work/shots"
 mkdir -p "$chroot_dir$inside/shots"
 cp "$work/dist/$zip_name" "$root/scripts/real_blender_check.py" "$chroot_dir$inside/"
@@ -58,27 +105,7 @@ chroot "$chroot_dir" bash -c "cd $inside && (for i in \$(seq -w 1 150); do \
 sleep 1
 cp -r "$chroot_dir$inside/shots" "$work/shots"
 if [ ! -f "$chroot_dir$inside/result.json" ]; then
-  echo "Blender wrote no result; its output is in $work/blender.log" >&2
-  exit 1
+  report "Blender wrote no result; its output is in $work/blender.log: $(tail -n 3 "$work/blender.log" | tr '\n' ' ')"
 fi
 cp "$chroot_dir$inside/result.json" "$work/result.json"
-python3 - "$work" <<'EOF'
-import glob, json, os, shutil, sys
-work = sys.argv[1]
-r = json.load(open(os.path.join(work, "result.json")))
-log = open(os.path.join(work, "blender.log"), errors="replace").read()
-r["checks"]["no Python traceback in Blender's output"] = "Traceback" not in log
-# The screen 1 s after the display was turned on and after the lighting was turned.
-shots = sorted((float(os.path.basename(p)[7:-4]), p) for p in glob.glob(os.path.join(work, "shots", "screen_*.png")))
-for key, name in (("display_on_at", "display_on.png"), ("rotated_at", "display_rotated.png")):
-    later = [p for t, p in shots if key in r and t >= r[key] + 1.0]
-    if later:
-        shutil.copy(later[0], os.path.join(work, name))
-print(f"Blender {r['blender']} (Python {r['python']}); Embree bound from {r.get('binding_library')}")
-for name, ok in r["checks"].items():
-    print(("PASS  " if ok else "FAIL  ") + name)
-if "exception" in r:
-    print(r["exception"])
-print(f"screenshots: {work}/display_on.png, {work}/display_rotated.png, {work}/shots/")
-sys.exit(0 if all(r["checks"].values()) else 1)
-EOF
+report
