@@ -70,7 +70,10 @@ fi
 
 mounted=()
 cleanup() {
-  for ((i = ${#mounted[@]} - 1; i >= 0; i--)); do umount -R "${mounted[i]}" 2>/dev/null || true; done
+  for ((i = ${#mounted[@]} - 1; i >= 0; i--)); do  # a mount still busy: once more, then lazily
+    umount -R "${mounted[i]}" 2>/dev/null || { sleep 1; umount -R "${mounted[i]}" 2>/dev/null; } ||
+      umount -R -l "${mounted[i]}" || echo "could not unmount ${mounted[i]}" >&2
+  done
 }
 trap cleanup EXIT
 for fs in proc dev sys; do
