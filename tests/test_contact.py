@@ -1,0 +1,402 @@
+"""Surfaces in contact (a box on the ground, a wall on a floor): no light leaking in at the seam.
+
+A point whose vertex lies in another surface's plane (the bottom row of a box standing on the
+ground) used to start its rays in that plane, and the rays going down slipped under the ground:
+the bottom row came out twice as bright as Cycles under a uniform white world. The core now also
+moves each origin by `offset` into the point's own surface (transfer.inward_tangents), so it lies
+on the side of the ground where the box is (docs/bake.md, "Contacts").
+
+The Cycles tests bake DIFFUSE / DIRECT to a FLOAT_COLOR CORNER attribute: E/pi per corner
+(white albedo excluded), sampled at the corner's vertex with its face's normal. The PRT side
+is the core run on the same corners (vertex position, corner normal) with the scene's
+triangles in Embree, under a uniform world of radiance 1, where E/pi = sqrt(4 pi) t_0. Values
+are compared as row means (the rows of a box side at one height); Cycles at 256 samples and
+the 1024-direction quadrature differ by at most 0.009 per row on these scenes (measured), so
+the tolerance is ROW_TOLERANCE = 0.025 (E/pi is 0.5 - 1 here). Before the change the bottom
+rows were 1.00 against Cycles' 0.50.
+"""
+
+import numpy as np
+import pytest
+
+from prt_addon.core import directions, raytrace, transfer
+
+ROW_TOLERANCE = 0.025
+SAMPLES = 256  # Cycles
+DIRECTIONS = 1024  # PRT
+
+embree = pytest.mark.skipif(not raytrace.EMBREE_AVAILABLE, reason="embreex not installed")
+
+
+# --- pure numpy: the inward tangents and the origins ---------------------------------------
+
+
+def grid_mesh(nx, ny, corner, u, v):
+    """A grid of nx x ny quads (two triangles each) spanning corner + [0, 1] u + [0, 1] v."""
+    s, t = np.meshgrid(np.linspace(0, 1, nx + 1), np.linspace(0, 1, ny + 1))
+    verts = (np.asarray(corner, float) + s.reshape(-1, 1) * np.asarray(u, float)
+             + t.reshape(-1, 1) * np.asarray(v, float))
+    idx = np.arange((nx + 1) * (ny + 1)).reshape(ny + 1, nx + 1)
+    a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
+    c, d = idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+    return verts, np.concatenate([np.stack([a, b, d], 1), np.stack([a, d, c], 1)])
+
+
+def merged(*meshes):
+    verts, tris, base = [], [], 0
+    for v, t in meshes:
+        verts.append(v)
+        tris.append(t + base)
+        base += len(v)
+    return np.concatenate(verts), np.concatenate(tris)
+
+
+def face_normals_of(verts, tris):
+    m = np.cross(verts[tris[:, 1]] - verts[tris[:, 0]], verts[tris[:, 2]] - verts[tris[:, 0]])
+    return m / np.linalg.norm(m, axis=1, keepdims=True)
+
+
+def test_inward_tangent_points_into_the_surface_at_a_boundary_and_is_zero_inside():
+    # A wall in the plane x = 0 from z = 0 to 1, facing +x.
+    verts, tris = grid_mesh(8, 8, (0, -1, 0), (0, 2, 0), (0, 0, 1))
+    normals = np.tile([1.0, 0.0, 0.0], (len(verts), 1))
+    u = transfer.inward_tangents(verts, normals, verts, tris)
+    bottom = np.abs(verts[:, 2]) < 1e-9
+    inside = (verts[:, 2] > 0.01) & (verts[:, 2] < 0.99) & (np.abs(verts[:, 1]) < 0.99)
+    assert np.allclose(u @ [1.0, 0.0, 0.0], 0.0)  # tangent
+    assert np.all(np.linalg.norm(u, axis=1) <= 1.0 + 1e-12)
+    # Bottom row (not the two corners): straight up the wall, unit length.
+    mid = bottom & (np.abs(verts[:, 1]) < 0.99)
+    assert np.allclose(u[mid], [0.0, 0.0, 1.0], atol=1e-6)
+    # Corners: into the wall, diagonally.
+    corner = bottom & (np.abs(verts[:, 1]) > 0.99)
+    assert np.all(u[corner, 2] > 0.5) and np.all(u[corner, 1] * verts[corner, 1] < 0)
+    assert np.allclose(u[inside], 0.0, atol=1e-6)  # a symmetric fan
+
+
+def test_inward_tangent_of_a_flat_box_side_ignores_the_bottom_face():
+    # A side face x = 1 (z from 0 to 1) and the bottom face z = 0 of a box, sharing the edge
+    # x = 1, z = 0: the side's corner points there (normal +x) point up the side.
+    side = grid_mesh(4, 4, (1, 0, 0), (0, 1, 0), (0, 0, 1))
+    bottom = grid_mesh(4, 4, (0, 0, 0), (0, 1, 0), (1, 0, 0))  # faces -z
+    assert np.allclose(face_normals_of(*side)[:, 0], 1.0)
+    assert np.allclose(face_normals_of(*bottom)[:, 2], -1.0)
+    verts, tris = merged(side, bottom)
+    verts, weld = np.unique(np.round(verts, 9), axis=0, return_inverse=True)  # one mesh
+    tris = weld.ravel()[tris]
+    edge = np.flatnonzero((np.abs(verts[:, 0] - 1) < 1e-9) & (np.abs(verts[:, 2]) < 1e-9)
+                          & (verts[:, 1] > 0.01) & (verts[:, 1] < 0.99))
+    # Each edge vertex of a flat-shaded box has two corner normals: two points.
+    points = np.concatenate([verts[edge], verts[edge]])
+    normals = np.concatenate([np.tile([1.0, 0, 0], (len(edge), 1)),
+                              np.tile([0, 0, -1.0], (len(edge), 1))])
+    u = transfer.inward_tangents(points, normals, verts, tris, np.concatenate([edge, edge]))
+    k = len(edge)
+    assert np.allclose(u[:k], [0, 0, 1.0], atol=1e-6)  # side point: up the side
+    assert np.allclose(u[k:], [-1.0, 0, 0], atol=1e-6)  # bottom point: into the bottom
+
+
+def test_inward_tangents_validate_their_input():
+    verts, tris = grid_mesh(2, 2, (0, 0, 0), (1, 0, 0), (0, 1, 0))
+    normals = np.tile([0, 0, 1.0], (len(verts), 1))
+    with pytest.raises(ValueError):
+        transfer.inward_tangents(verts[:2], normals[:2], verts, tris, [0])
+    with pytest.raises(ValueError):
+        transfer.inward_tangents(verts[:1], normals[:1], verts, tris, [len(verts)])
+    assert np.array_equal(transfer.inward_tangents(verts, normals, verts, tris[:0]),
+                          np.zeros((len(verts), 3)))
+
+
+def wall_on_floor():
+    wall = grid_mesh(8, 8, (0, -1, 0), (0, 2, 0), (0, 0, 1))  # x = 0, faces +x
+    floor = grid_mesh(16, 16, (-2, -2, 0), (4, 0, 0), (0, 4, 0))
+    assert np.allclose(face_normals_of(*wall)[:, 0], 1.0)
+    assert np.allclose(face_normals_of(*floor)[:, 2], 1.0)
+    return wall, floor
+
+
+def unit_world_radiance(result):
+    """E/pi under a uniform world of radiance 1: sqrt(4 pi) t_0."""
+    return np.sqrt(4.0 * np.pi) * result.coeffs[:, 0].astype(np.float64)
+
+
+@embree
+@pytest.mark.parametrize("contact", [False, True])
+def test_wall_on_floor_bottom_row_sees_only_the_upper_half(contact):
+    """The wall's foot (normal +x, on the floor) sees the sky above the floor only: E/pi = 1/2
+    exactly for an unbounded floor (here 2 to the sides: the same within the quadrature). The
+    origins in the floor's plane let the rays going down through: 1.0."""
+    (wv, wt), floor = wall_on_floor()
+    verts, tris = merged((wv, wt), floor)
+    occluder = raytrace.EmbreeOccluder(verts, tris)
+    normals = np.tile([1.0, 0.0, 0.0], (len(wv), 1))
+    kwargs = {"surface": (wv, wt)} if contact else {}
+    result = transfer.TransferComputation(
+        wv, normals, directions.make_directions("FIBONACCI", DIRECTIONS, 0), 1, occluder,
+        offset=1e-4 * 2.3, **kwargs).run()
+    radiance = unit_world_radiance(result)
+    bottom = radiance[np.abs(wv[:, 2]) < 1e-9].mean()
+    above = radiance[np.abs(wv[:, 2] - 0.125) < 1e-9].mean()
+    print(f"contact={contact}: bottom row {bottom:.4f}, next row {above:.4f}")
+    if contact:
+        assert abs(bottom - 0.5) < 0.015
+        assert bottom < above
+    else:  # the old origins: documents the leak this fixes
+        assert bottom > 0.9
+
+
+@embree
+def test_origins_move_by_offset_along_the_normal_and_at_most_offset_along_the_surface():
+    (wv, wt), _floor = wall_on_floor()
+    normals = np.tile([1.0, 0.0, 0.0], (len(wv), 1))
+    offset = 1e-3
+    comp = transfer.TransferComputation(
+        wv, normals, directions.make_directions("FIBONACCI", 16, 0), 1, None, offset=offset,
+        surface=(wv, wt))
+    moved = transfer._xyz(comp.origins16).astype(np.float64) - wv
+    assert np.allclose(moved[:, 0], offset, rtol=1e-4)
+    assert np.all(np.linalg.norm(moved[:, 1:], axis=1) <= offset * (1 + 1e-4))
+    assert np.all(moved[np.abs(wv[:, 2]) < 1e-9, 2] > 0.7 * offset)  # the foot: up (corners 45 deg)
+
+
+@embree
+def test_no_contact_results_unchanged_within_noise():
+    """A wavy surface under a plane, no contact: the tangential moves of the origins (at most
+    `offset`, and ~0 at interior vertices) change the transfer far below its error."""
+    n = 40
+    x, y = np.meshgrid(np.linspace(-1, 1, n), np.linspace(-1, 1, n))
+    z = 0.3 * np.sin(4 * x) * np.cos(3 * y)
+    verts = np.stack([x.ravel(), y.ravel(), z.ravel()], 1)
+    idx = np.arange(n * n).reshape(n, n)
+    a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
+    c, d = idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+    tris = np.concatenate([np.stack([a, b, d], 1), np.stack([a, d, c], 1)])
+    m = face_normals_of(verts, tris)
+    normals = np.zeros_like(verts)
+    for k in range(3):
+        np.add.at(normals, tris[:, k], m)
+    occluder = raytrace.EmbreeOccluder(verts, tris)
+    dirs = directions.make_directions("FIBONACCI", 256, 0)
+    old = transfer.TransferComputation(verts, normals, dirs, 3, occluder, offset=2.8e-4).run()
+    new = transfer.TransferComputation(verts, normals, dirs, 3, occluder, offset=2.8e-4,
+                                       surface=(verts, tris)).run()
+    diff = np.abs(new.coeffs - old.coeffs).mean()
+    print(f"mean |difference| {diff:.2e}, error estimate {old.error_rms():.2e}")
+    assert diff < 0.05 * old.error_rms()
+
+
+# --- against Cycles ------------------------------------------------------------------------
+
+
+def _white_world(bpy, scene):
+    world = bpy.data.worlds.new("World")
+    if world.node_tree is None:
+        world.use_nodes = True
+    background = world.node_tree.nodes["Background"]
+    background.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    background.inputs["Strength"].default_value = 1.0
+    scene.world = world
+
+
+def _add(bpy, scene, name, build, location=(0.0, 0.0, 0.0)):
+    import bmesh
+
+    mesh = bpy.data.meshes.new(name)
+    bm = bmesh.new()
+    build(bmesh, bm)
+    bm.to_mesh(mesh)
+    bm.free()
+    mesh.materials.append(bpy.data.materials.new(name))
+    obj = bpy.data.objects.new(name, mesh)
+    obj.location = location
+    scene.collection.objects.link(obj)
+    return obj
+
+
+def _grid(size, cuts):
+    return lambda bmesh, bm: bmesh.ops.create_grid(bm, x_segments=cuts, y_segments=cuts,
+                                                   size=size / 2)
+
+
+def _box(size, cuts):
+    def build(bmesh, bm):
+        bmesh.ops.create_cube(bm, size=size)
+        bmesh.ops.subdivide_edges(bm, edges=bm.edges[:], cuts=cuts, use_grid_fill=True)
+    return build
+
+
+def _wall(width, height, cuts):
+    def build(bmesh, bm):
+        bmesh.ops.create_grid(bm, x_segments=cuts, y_segments=cuts, size=0.5)
+        for v in bm.verts:  # the grid's (x, y) in [-1/2, 1/2] -> (0, x w, (y + 1/2) h): faces +x
+            x, y, _z = v.co
+            v.co = (0.0, x * width, (y + 0.5) * height)
+    return build
+
+
+def _read(obj):
+    """World vertices (V, 3), loop triangles (T, 3), corner vertices (L,), corner normals."""
+    mesh = obj.data
+    world = np.array(obj.matrix_world)
+    v = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get("co", v)
+    v = v.reshape(-1, 3).astype(np.float64) @ world[:3, :3].T + world[:3, 3]
+    mesh.calc_loop_triangles()
+    t = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+    mesh.loop_triangles.foreach_get("vertices", t)
+    corner_verts = np.empty(len(mesh.loops), np.int32)
+    mesh.loops.foreach_get("vertex_index", corner_verts)
+    n = np.empty(len(mesh.loops) * 3, np.float32)
+    mesh.corner_normals.foreach_get("vector", n)
+    n = n.reshape(-1, 3).astype(np.float64) @ np.linalg.inv(world[:3, :3])
+    return v, t.reshape(-1, 3), corner_verts, n
+
+
+def _cycles(bpy, scene, obj):
+    """E/pi per corner of obj from Cycles."""
+    mesh = obj.data
+    attr = mesh.color_attributes.new("bake", "FLOAT_COLOR", "CORNER")
+    mesh.color_attributes.active_color = attr
+    for other in scene.objects:
+        other.select_set(other == obj)
+    bpy.context.view_layer.objects.active = obj
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = SAMPLES
+    bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT"}, target="VERTEX_COLORS",
+                        use_clear=True)
+    out = np.empty(len(mesh.loops) * 4, np.float32)
+    mesh.color_attributes["bake"].data.foreach_get("color", out)
+    return out.reshape(-1, 4)[:, :3].mean(axis=1).astype(np.float64)
+
+
+def _prt(objs, target, occluder_kind="EMBREE"):
+    """E/pi per corner of objs[target] with every object an occluder: (new, old, v, n)."""
+    parts = [_read(o) for o in objs]
+    verts, tris = merged(*[(p[0], p[1]) for p in parts])
+    if occluder_kind == "EMBREE":
+        occluder = raytrace.EmbreeOccluder(verts, tris)
+    else:
+        from prt_addon.blender.bvh_backend import BVHTreeOccluder
+
+        occluder = BVHTreeOccluder(verts, tris)
+    v, t, corner_verts, n = parts[target]
+    diagonal = np.linalg.norm(v.max(axis=0) - v.min(axis=0))
+    offset = max(1e-4 * diagonal, 1e-5 * np.abs(v).max())  # as the bake job's
+    dirs = directions.make_directions("FIBONACCI", DIRECTIONS, 0)
+    out = []
+    for extra in ({"surface": (v, t), "point_vertex": corner_verts}, {}):
+        result = transfer.TransferComputation(v[corner_verts], n, dirs, 1, occluder,
+                                              offset=offset, **extra).run()
+        out.append(unit_world_radiance(result))
+    return out[0], out[1], v[corner_verts], n
+
+
+def _rows(values, key, select):
+    """{rounded key: mean of values over the selected corners with that key}."""
+    keys = np.round(key, 4)
+    return {k: float(values[select & (keys == k)].mean()) for k in np.unique(keys[select])}
+
+
+def _compare(label, cycles, new, old, key, select):
+    rc, rn, ro = _rows(cycles, key, select), _rows(new, key, select), _rows(old, key, select)
+    for k in rc:
+        print(f"{label} {k:+.3f}: cycles {rc[k]:.4f}  prt {rn[k]:.4f}  before {ro[k]:.4f}")
+    return rc, rn, ro
+
+
+def _assert_rows_agree(rc, rn):
+    worst = max(abs(rn[k] - rc[k]) for k in rc)
+    assert worst <= ROW_TOLERANCE, (worst, rc, rn)
+
+
+@pytest.mark.blender
+@pytest.mark.cycles
+@embree
+def test_box_on_ground_bottom_row_like_cycles(empty_scene, bpy_module):
+    bpy, scene = bpy_module, empty_scene
+    _white_world(bpy, scene)
+    ground = _add(bpy, scene, "ground", _grid(4.0, 16))
+    box = _add(bpy, scene, "box", _box(1.0, 3), (0.0, 0.0, 0.5))  # standing on z = 0
+    cycles = _cycles(bpy, scene, box)
+    new, old, pos, normals = _prt([box, ground], 0)
+    side = np.abs(normals[:, 2]) < 0.5
+    rc, rn, _ro = _compare("box side z", cycles, new, old, pos[:, 2], side)
+    z = sorted(rc)
+    # Not brighter than the row above beyond what Cycles shows (Cycles: 0.50 and 0.59).
+    assert rn[z[0]] - rn[z[1]] <= rc[z[0]] - rc[z[1]] + ROW_TOLERANCE
+    _assert_rows_agree(rc, rn)
+
+
+@pytest.mark.blender
+@pytest.mark.cycles
+@embree
+def test_wall_on_floor_bottom_row_like_cycles(empty_scene, bpy_module):
+    bpy, scene = bpy_module, empty_scene
+    _white_world(bpy, scene)
+    floor = _add(bpy, scene, "floor", _grid(4.0, 16))
+    wall = _add(bpy, scene, "wall", _wall(2.0, 1.0, 8))
+    cycles = _cycles(bpy, scene, wall)
+    new, old, pos, normals = _prt([wall, floor], 0)
+    assert np.allclose(normals, [1.0, 0.0, 0.0], atol=1e-6)
+    rc, rn, _ro = _compare("wall z", cycles, new, old, pos[:, 2], np.ones(len(pos), bool))
+    _assert_rows_agree(rc, rn)
+
+
+@pytest.mark.blender
+@pytest.mark.cycles
+@embree
+def test_box_hovering_above_the_ground_not_darkened(empty_scene, bpy_module):
+    """A gap of 1 % of the box's size: the rays pass under the box, as in Cycles."""
+    bpy, scene = bpy_module, empty_scene
+    _white_world(bpy, scene)
+    ground = _add(bpy, scene, "ground", _grid(4.0, 16))
+    box = _add(bpy, scene, "box", _box(1.0, 3), (0.0, 0.0, 0.51))
+    cycles = _cycles(bpy, scene, box)
+    new, old, pos, normals = _prt([box, ground], 0)
+    rc, rn, _ro = _compare("hovering side z", cycles, new, old, pos[:, 2],
+                           np.abs(normals[:, 2]) < 0.5)
+    _assert_rows_agree(rc, rn)
+    bottom = normals[:, 2] < -0.5  # facing the ground 0.01 below: dark in both
+    assert new[bottom].mean() < 0.01 and cycles[bottom].mean() < 0.01
+
+
+@pytest.mark.blender
+@pytest.mark.cycles
+@embree
+@pytest.mark.parametrize("where", ["edge", "corner"])
+def test_boxes_touching_at_an_edge_or_corner_not_darkened(empty_scene, bpy_module, where):
+    """Box B touches box A along A's vertical edge (x, y) = (1/2, 1/2), or only at its corner
+    (1/2, 1/2, 1/2). A's +x face, by rows across y (the touching edge is the last row), and
+    the corners at the contact point, as in Cycles."""
+    bpy, scene = bpy_module, empty_scene
+    _white_world(bpy, scene)
+    a = _add(bpy, scene, "A", _box(1.0, 3))
+    b = _add(bpy, scene, "B", _box(1.0, 3), (1.0, 1.0, 0.0 if where == "edge" else 1.0))
+    cycles = _cycles(bpy, scene, a)
+    new, old, pos, normals = _prt([a, b], 0)
+    face = normals[:, 0] > 0.5
+    rc, rn, _ro = _compare(f"{where}: A's +x face, y", cycles, new, old, pos[:, 1], face)
+    _assert_rows_agree(rc, rn)
+    assert min(rn[k] - rc[k] for k in rc) >= -ROW_TOLERANCE
+    # The corners at (1/2, 1/2, 1/2): Cycles itself gives 0.62 - 1.0 there (its +x and +y
+    # corners differ by 0.07 at the edge contact, the point being on B's edge).
+    at = np.all(np.abs(pos - 0.5) < 1e-6, axis=1)
+    print("corners at the contact point: cycles", cycles[at], "prt", new[at], "before", old[at])
+    assert np.all(new[at] >= cycles[at] - 0.1)
+
+
+@pytest.mark.blender
+@embree
+def test_bvhtree_backend_gets_the_same_contact_fix(empty_scene, bpy_module):
+    """The BVHTree fallback traces the same origins: same result as Embree at the seam."""
+    bpy, scene = bpy_module, empty_scene
+    floor = _add(bpy, scene, "floor", _grid(4.0, 8))
+    wall = _add(bpy, scene, "wall", _wall(2.0, 1.0, 4))
+    new_e, old_e, pos, _n = _prt([wall, floor], 0, "EMBREE")
+    new_b, old_b, _p, _n = _prt([wall, floor], 0, "BVHTREE")
+    bottom = np.abs(pos[:, 2]) < 1e-9
+    print("bottom row: embree", new_e[bottom].mean(), "bvhtree", new_b[bottom].mean(),
+          "before", old_e[bottom].mean(), old_b[bottom].mean())
+    assert abs(new_b[bottom].mean() - 0.5) < 0.015
+    assert np.abs(new_b - new_e).max() < 0.01
