@@ -2,7 +2,9 @@
 
 Per redraw (docs/display.md): the world light comes from lighting.world_light; per object it is
 rotated into the object's local frame and written into its uniform buffer only when it changed;
-the transfer batches come from gpu_cache. Nothing here changes Blender data.
+the transfer batches come from gpu_cache. With split sun lights (lighting.world_lights) their
+shadow maps come from shadows.py and the sun variant of the shader is used. Nothing here changes
+Blender data.
 """
 
 import bpy
@@ -12,8 +14,10 @@ import numpy as np
 from .. import storage
 from .albedo import _slot_tints, display_settings, material_colour
 from .gpu_cache import ObjectState, _object_cache, _prune, clear_caches, get_mesh_entry
-from .lighting import exposure_scale, light_in_local_frame, world_light
+from .lighting import exposure_scale, light_in_local_frame, world_light, world_lights
 from .shader import get_shader, light_ubo_bytes
+from .shader_suns import MAX_SUNS, suns_ubo_bytes
+from .shadows import update_shadow_maps
 
 
 VIEWPORT_DEPTH_BIAS = 2e-5  # clip-space z bias so the overlay wins against the engine's own depth
@@ -53,6 +57,8 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
     light_tag = (light.shape, light.tobytes())
     vp = mathutils.Matrix(np.asarray(view_projection, dtype=np.float64).tolist())
     albedo_mode, albedo_attr = display_settings(scene)
+    suns = list(world_lights(scene))[:MAX_SUNS] if objects else []
+    maps = update_shadow_maps(scene, suns, depsgraph) if suns else []
     drawn = 0
     for obj in objects:
         info, _problem = storage.usable_bake(obj.data, check_topology=False)
@@ -61,7 +67,7 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
         entry = get_mesh_entry(obj.data, info, albedo_mode, albedo_attr, obj, depsgraph)
         if not entry.batches:
             continue
-        shader = get_shader(info.count)
+        shader = get_shader(info.count, len(suns))
         state = _object_cache.setdefault(obj.as_pointer(), ObjectState())
         mw = np.array(obj.matrix_world, dtype=np.float64)
         light_key = (light_tag, mw[:3, :3].tobytes(), info.order, info.count)
@@ -77,6 +83,8 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
         shader.uniform_float("scale", float(scale))
         shader.uniform_float("depth_bias", float(depth_bias))
         shader.uniform_block("light", state.ubo)
+        if suns:
+            _bind_suns(shader, state, suns, maps, mw)
         if entry.texture is not None:
             shader.uniform_int("per_row", entry.per_row)
             shader.uniform_sampler("transfer_tx", entry.texture)
@@ -91,6 +99,18 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
             batch.draw(shader)
         drawn += 1
     return drawn
+
+
+def _bind_suns(shader, state, suns, maps, matrix_world):
+    data = suns_ubo_bytes(suns, maps, matrix_world)
+    if state.suns_ubo is None:
+        state.suns_ubo = gpu.types.GPUUniformBuf(data)
+    elif state.suns_bytes != data:
+        state.suns_ubo.update(data)
+    state.suns_bytes = data
+    shader.uniform_block("suns", state.suns_ubo)
+    for index, shadow in enumerate(maps):
+        shader.uniform_sampler(f"shadow{index}", shadow.color)
 
 
 def _draw_callback():

@@ -24,11 +24,13 @@ class MeshEntry:
 
 
 class ObjectState:
-    __slots__ = ("ubo", "light_key")
+    __slots__ = ("ubo", "light_key", "suns_ubo", "suns_bytes")
 
     def __init__(self):
         self.ubo = None
         self.light_key = None
+        self.suns_ubo = None
+        self.suns_bytes = None
 
 
 _mesh_cache = {}  # (mesh pointer, object pointer or 0 when undeformed) -> MeshEntry
@@ -38,8 +40,11 @@ _object_cache = {}  # object pointer -> ObjectState
 
 
 def clear_caches():
+    from .shadows import clear_shadows
+
     _mesh_cache.clear()
     _object_cache.clear()
+    clear_shadows()
 
 
 def _cache_key(mesh, info, albedo_mode, albedo_attr):
@@ -76,14 +81,24 @@ def deformed_mesh(obj, depsgraph):
     return mesh_eval
 
 
+def element_normals(mesh, domain):
+    """(elements, 3) float32 local normals in the bake's domain: vertex or corner normals."""
+    if domain == "CORNER":
+        return mesh_read.read_corner_normals(mesh)
+    return mesh_read.read_vertex_normals(mesh)
+
+
 def build_mesh_entry(mesh, info, key, albedo_mode="MATERIAL", albedo_attr="", positions=None,
-                     evaluated=None):
+                     evaluated=None, normals=None):
     """Upload a baked mesh: vertex buffer per element, index buffers per material, transfer.
     key: its _cache_key; positions: (vertices, 3) local positions to draw instead of the mesh's
-    (deformed_mesh); evaluated: the evaluated positions the entry stands for (get_mesh_entry)."""
+    (deformed_mesh), with normals their (elements, 3) normals; evaluated: the evaluated positions
+    the entry stands for (get_mesh_entry)."""
     n = element_count(mesh, info.domain)
     if positions is None:
         positions = mesh_read.read_positions(mesh)
+    if normals is None:
+        normals = element_normals(mesh, info.domain)
     mesh.calc_loop_triangles()
     ntri = len(mesh.loop_triangles)
     tris = np.empty(ntri * 3, dtype=np.int32)
@@ -100,12 +115,14 @@ def build_mesh_entry(mesh, info, key, albedo_mode="MATERIAL", albedo_attr="", po
     fmt = gpu.types.GPUVertFormat()
     fmt.attr_add(id="prt_pos", comp_type="F32", len=3, fetch_mode="FLOAT")
     fmt.attr_add(id="prt_albedo", comp_type="F32", len=4, fetch_mode="FLOAT")
+    fmt.attr_add(id="prt_nrm", comp_type="F32", len=3, fetch_mode="FLOAT")
     if mode == "ATTR":
         for k in range(info.count):
             fmt.attr_add(id=f"prt_t{k}", comp_type="F32", len=4, fetch_mode="FLOAT")
     vbo = gpu.types.GPUVertBuf(fmt, n)
     vbo.attr_fill("prt_pos", positions)
     vbo.attr_fill("prt_albedo", albedo)
+    vbo.attr_fill("prt_nrm", np.ascontiguousarray(normals, dtype=np.float32))
     texture, per_row = None, 0
     if mode == "ATTR":
         for k in range(info.count):
@@ -155,12 +172,14 @@ def get_mesh_entry(mesh, info, albedo_mode, albedo_attr, obj=None, depsgraph=Non
     if entry is None or entry.key != key or (
         positions is not None and not np.array_equal(entry.evaluated, positions)
     ):
-        drawn = positions
+        drawn, normals = positions, None
         # Same counts but other connectivity (e.g. a Sort Elements node): the baked elements
         # are not these, so draw the undeformed mesh.
         if positions is not None and mesh_read.topology_fingerprint(mesh_eval) != mesh_read.topology_fingerprint(mesh):
             drawn = None
-        entry = build_mesh_entry(mesh, info, key, albedo_mode, albedo_attr, drawn, positions)
+        if drawn is not None:
+            normals = element_normals(mesh_eval, info.domain)
+        entry = build_mesh_entry(mesh, info, key, albedo_mode, albedo_attr, drawn, positions, normals)
         _mesh_cache[ptr] = entry
     return entry
 

@@ -4,7 +4,7 @@ import bpy
 from bpy.app.handlers import persistent
 
 from .. import storage
-from . import draw, gpu_cache, shader
+from . import draw, gpu_cache, shader, shadows
 from .lighting import clear_light_overrides
 
 
@@ -32,6 +32,7 @@ def _on_depsgraph_update(_scene, depsgraph):
         elif isinstance(ident, bpy.types.Object) and ident.type == "MESH":
             mesh = ident.original.data
         if mesh is not None:
+            shadows.geometry_changed()
             ptr = mesh.as_pointer()
             for key in [k for k in gpu_cache._mesh_cache if k[0] == ptr]:
                 del gpu_cache._mesh_cache[key]

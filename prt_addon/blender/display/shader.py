@@ -3,7 +3,8 @@
 The transfer t comes as vertex attributes while they fit in the 16 vertex-attribute limit
 (orders <= 7), otherwise from an RGBA32F texture read with texelFetch at gl_VertexID; the light
 is a uniform buffer (std140, vec4-padded). The vertex shader computes max(sum_i L_i t_i, 0) per
-colour channel times the albedo; the fragment shader writes it.
+colour channel times the albedo; the fragment shader writes it. With sun lights (shadows.py) a
+variant adds per pixel albedo * sum_l P_l/pi * max(0, n.s_l) * V_l (shader_suns.py).
 """
 
 import gpu
@@ -51,15 +52,21 @@ def shader_mode(count):
     return "ATTR" if count <= MAX_ATTRIBUTE_TRANSFER else "TEXTURE"
 
 
-def get_shader(count):
-    """Compiled shader for `count` transfer vec4s (cached). Raises RuntimeError on failure."""
+def get_shader(count, lights=0):
+    """Compiled shader for `count` transfer vec4s and `lights` suns (cached). Raises RuntimeError
+    on failure. lights = 0 is the plain PRT shader."""
     mode = shader_mode(count)
-    key = (mode, count)
+    key = (mode, count) if not lights else (mode, count, lights)
     shader = _shaders.get(key)
     if shader is not None:
         return shader
     info = gpu.types.GPUShaderCreateInfo()
-    info.typedef_source(f"struct PRTLight {{ vec4 c[{3 * count}]; }};\n")
+    typedefs = f"struct PRTLight {{ vec4 c[{3 * count}]; }};\n"
+    if lights:
+        from .shader_suns import UBO_SOURCE
+
+        typedefs += UBO_SOURCE  # (typedef_source keeps only its last call)
+    info.typedef_source(typedefs)
     info.uniform_buf(0, "PRTLight", "light")
     info.push_constant("MAT4", "mvp")
     info.push_constant("VEC4", "tint")
@@ -83,12 +90,18 @@ def get_shader(count):
             f"dot(t, light.c[{2 * count} + k]));\n"
             "  }"
         )
-    iface = gpu.types.GPUStageInterfaceInfo("prt_iface")
-    iface.smooth("VEC3", "radiance")
-    info.vertex_out(iface)
+    if lights:
+        from .shader_suns import add_suns
+
+        vertex, fragment = add_suns(info, lights, _VERTEX_COMMON % body, 2 + count if mode == "ATTR" else 2)
+    else:
+        iface = gpu.types.GPUStageInterfaceInfo("prt_iface")
+        iface.smooth("VEC3", "radiance")
+        info.vertex_out(iface)
+        vertex, fragment = _VERTEX_COMMON % body, _FRAGMENT
     info.fragment_out(0, "VEC4", "FragColor")
-    info.vertex_source(_VERTEX_COMMON % body)
-    info.fragment_source(_FRAGMENT)
+    info.vertex_source(vertex)
+    info.fragment_source(fragment)
     shader = gpu.shader.create_from_info(info)
     _shaders[key] = shader
     return shader

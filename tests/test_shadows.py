@@ -1,0 +1,219 @@
+"""Sun lights in the display: per-pixel n.s with shadow maps, against closed forms and traced rays.
+
+A baked ground grid (unshadowed transfer, so a constant sky SH lights it to exactly the sky
+radiance) under an unbaked box that only casts; lights injected with lighting.set_lights_override.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from test_display import add_camera, add_env_world, bake_sphere, clamped_cosine_rows, set_light, write_bake
+
+pytestmark = [pytest.mark.blender, pytest.mark.gpu]
+
+SKY = np.array([0.2, 0.3, 0.5])
+POWER = np.array([3.0, 2.5, 2.0])
+SIZE = 256
+
+
+@pytest.fixture(scope="module")
+def gpu_ready(bpy_module, addon):
+    from prt_addon.blender.display import offscreen
+
+    assert offscreen.ensure_gpu()
+    return True
+
+
+def sky_light(order=3):
+    light = np.zeros((order * order, 3))
+    light[0] = SKY * np.sqrt(4.0 * np.pi)
+    return light
+
+
+def make_ground(bpy, scene, half=4.0, segments=64):
+    """A flat grid at z = 0 of side 2 * half, baked with the clamped cosine about +Z."""
+    import bmesh
+
+    mesh = bpy.data.meshes.new("Ground")
+    bm = bmesh.new()
+    bmesh.ops.create_grid(bm, x_segments=segments, y_segments=segments, size=half)
+    bm.to_mesh(mesh)
+    bm.free()
+    obj = bpy.data.objects.new("Ground", mesh)
+    scene.collection.objects.link(obj)
+    normals = np.tile([0.0, 0.0, 1.0], (len(mesh.vertices), 1))
+    write_bake(obj, clamped_cosine_rows(normals, 3), 3)
+    return obj
+
+
+def make_box(bpy, scene, centre=(0.0, 0.0, 1.0), size=1.0):
+    import bmesh
+
+    mesh = bpy.data.meshes.new("Box")
+    bm = bmesh.new()
+    bmesh.ops.create_cube(bm, size=size)
+    bm.to_mesh(mesh)
+    bm.free()
+    obj = bpy.data.objects.new("Box", mesh)
+    scene.collection.objects.link(obj)
+    obj.location = centre
+    return obj
+
+
+@pytest.fixture
+def ground_scene(bpy_module, empty_scene, gpu_ready):
+    scene = empty_scene
+    add_env_world(bpy_module, scene)
+    add_camera(bpy_module, scene, location=(0.0, 0.0, 12.0), euler=(0.0, 0.0, 0.0), size=SIZE)
+    ground = make_ground(bpy_module, scene)
+    make_box(bpy_module, scene)
+    set_light(scene, sky_light())
+    scene.prt_display.albedo_source = "WHITE"
+    bpy_module.context.view_layer.update()
+    return scene, ground
+
+
+def sun(direction, angle=0.01, power=POWER):
+    from prt_addon.core.lights import Light
+
+    d = np.asarray(direction, dtype=np.float64)
+    return Light(direction=d / np.linalg.norm(d), power=power, angle=angle)
+
+
+def set_suns(scene, lights):
+    from prt_addon.blender.display import lighting
+
+    lighting.set_lights_override(scene, lights)
+
+
+def ground_pixels(scene, points):
+    """(rows, cols) of world points (top row 0) in the SIZE x SIZE camera image."""
+    from prt_addon.blender.display import offscreen
+
+    view, proj = offscreen.camera_matrices(scene, SIZE, SIZE)
+    clip = np.c_[points, np.ones(len(points))] @ (proj @ view).T
+    ndc = clip[:, :2] / clip[:, 3:4]
+    cols = np.floor((ndc[:, 0] + 1.0) * 0.5 * SIZE).astype(int)
+    rows = np.floor((1.0 - ndc[:, 1]) * 0.5 * SIZE).astype(int)
+    return rows, cols
+
+
+def grid_points(half, step=0.05):
+    xs = np.arange(-half, half + 1e-9, step)
+    x, y = np.meshgrid(xs, xs)
+    return np.c_[x.ravel(), y.ravel(), np.zeros(x.size)]
+
+
+def render(scene):
+    import prt_addon.api as api
+
+    return api.render_view(scene, SIZE, SIZE)
+
+
+def test_no_lights_is_todays_image(bpy_module, ground_scene):
+    """An empty light list and no override draw the plain PRT path; lights of zero power go
+    through the sun shader and add exactly 0 to the same interpolated SH radiance."""
+    scene, _ground = ground_scene
+    sphere = bake_sphere(bpy_module, 3, segments=24, rings=12)
+    sphere.location = (1.5, 1.5, 1.5)
+    plain = render(scene)
+    set_suns(scene, [])
+    np.testing.assert_array_equal(render(scene), plain)
+    set_suns(scene, [sun((0.3, 0.2, 1.0), power=(0.0, 0.0, 0.0))])
+    np.testing.assert_array_equal(render(scene), plain)
+    set_suns(scene, None)
+    np.testing.assert_array_equal(render(scene), plain)
+
+
+def test_box_shadow_straight_down(bpy_module, ground_scene):
+    """Light along +Z: under the box only the sky; far outside sky + P/pi (n.s = 1, V = 1)."""
+    scene, _ground = ground_scene
+    set_suns(scene, [sun((0.0, 0.0, 1.0))])
+    image = render(scene)
+    points = grid_points(3.8)
+    rows, cols = ground_pixels(scene, points)
+    got = image[rows, cols, :3]
+    assert np.all(image[rows, cols, 3] == 1.0)
+    inside = np.max(np.abs(points[:, :2]), axis=1) < 0.4
+    outside = np.max(np.abs(points[:, :2]), axis=1) > 0.7
+    assert inside.sum() > 100 and outside.sum() > 1000
+    # V is exactly 0 or 1 there, so only float32 rounding separates the image from the closed form.
+    np.testing.assert_allclose(got[inside], np.tile(SKY, (inside.sum(), 1)), rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(got[outside], np.tile(SKY + POWER / np.pi, (outside.sum(), 1)), rtol=1e-5,
+                               atol=1e-6)
+
+
+def test_mapping_rotation_moves_the_shadow(bpy_module, ground_scene):
+    """The real path: a Mapping node on the world turns the injected light by 60 degrees; the
+    shadow follows to where the rotated direction projects the box, and n.s drops to cos 60."""
+    from prt_addon.blender.display import lighting
+    from prt_addon.blender.world import nodes as world_nodes
+
+    scene, _ground = ground_scene
+    set_suns(scene, [sun((0.0, 0.0, 1.0))])
+    before = render(scene)
+    node = world_nodes.ensure_mapping_node(scene.world)
+    node.inputs["Rotation"].default_value = (math.radians(60.0), 0.0, 0.0)
+    s = lighting.world_lights(scene)[0].direction
+    assert s[2] == pytest.approx(0.5, abs=1e-6)
+    after = render(scene)
+    centre = np.array([0.0, 0.0, 1.0])
+    shadow_centre = centre - s * (centre[2] / s[2])
+    assert np.linalg.norm(shadow_centre[:2]) == pytest.approx(math.sqrt(3.0), rel=1e-4)
+    (r0, r1), (c0, c1) = ground_pixels(scene, np.array([[0.0, 0.0, 0.0], shadow_centre]))
+    np.testing.assert_allclose(before[r0, c0, :3], SKY, rtol=1e-5)  # under the box before
+    np.testing.assert_allclose(after[r0, c0, :3], SKY + POWER / np.pi * 0.5, rtol=1e-4)
+    np.testing.assert_allclose(after[r1, c1, :3], SKY, rtol=1e-5)  # the shadow moved there
+    np.testing.assert_allclose(before[r1, c1, :3], SKY + POWER / np.pi, rtol=1e-5)
+
+
+def test_vertices_agree_with_traced_visibility(bpy_module, ground_scene):
+    """At the ground's vertices away from shadow edges the image equals the exact per-vertex
+    sky + P/pi * max(0, n.s) * V, V traced with Embree on the scene's triangles (disc rays)."""
+    from prt_addon.blender.display import shadows
+    from prt_addon.core import lights as core_lights
+    from prt_addon.core.raytrace import EmbreeOccluder
+
+    scene, ground = ground_scene
+    sphere = bake_sphere(bpy_module, 3, segments=32, rings=16, radius=0.6)
+    sphere.location = (-1.5, 1.2, 1.2)
+    bpy_module.context.view_layer.update()
+    light = sun((0.35, -0.25, 1.0), angle=0.02)
+    set_suns(scene, [light])
+    image = render(scene)
+    depsgraph = bpy_module.context.evaluated_depsgraph_get()
+    objects = shadows.caster_objects(scene)
+    positions, triangles = shadows.caster_triangles(objects, depsgraph)
+    occluder = EmbreeOccluder(positions, triangles)
+    mw = np.array(ground.matrix_world)
+    local = np.array([v.co for v in ground.data.vertices])
+    points = local @ mw[:3, :3].T + mw[:3, 3]
+    normals = np.tile([0.0, 0.0, 1.0], (len(points), 1))
+    vis = core_lights.light_visibility(points, normals, [light], occluder, rays_per_light=16)[:, 0]
+    # Away from edges: the same V within 4 texels (2048 map over the 8.6 m box: 4.2 mm a texel),
+    # a pixel (the image is read at the pixel holding the vertex: 34 mm) and the penumbra, in
+    # every direction, so neither the map's sampling nor the filter can differ from the traced V.
+    texel = shadows.update_shadow_maps(scene, [light], depsgraph)[0].texel
+    pixel = 2.0 * 12.0 * math.tan(0.5 * scene.camera.data.angle) / SIZE
+    margin = 4.0 * texel + 1.5 * pixel + 2.0 * math.tan(light.angle) * 2.0
+    same = np.ones(len(points), dtype=bool)
+    for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, -1), (1, -1), (-1, 1)):
+        moved = points + margin * np.array([dx, dy, 0.0])
+        same &= core_lights.light_visibility(moved, normals, [light], occluder, rays_per_light=16)[:, 0] == vis
+    to_camera = np.array(scene.camera.location) - points
+    to_camera /= np.linalg.norm(to_camera, axis=1, keepdims=True)
+    seen = ~np.asarray(occluder.occluded((points + 1e-4 * normals).astype(np.float32),
+                                         to_camera.astype(np.float32)), dtype=bool)
+    # The unbaked box is not drawn: the ground under it is seen; the baked sphere hides some.
+    seen |= np.max(np.abs(points[:, :2]), axis=1) < 0.5
+    interior = (np.max(np.abs(points[:, :2]), axis=1) < 3.9) & seen
+    keep = same & interior & ((vis == 0.0) | (vis == 1.0))
+    assert (keep & (vis == 0.0)).sum() > 30 and (keep & (vis == 1.0)).sum() > 1000
+    want = SKY + core_lights.light_irradiance(normals[keep], [light], vis[keep, None])
+    rows, cols = ground_pixels(scene, points[keep])
+    got = image[rows, cols, :3]
+    np.testing.assert_allclose(got, want, rtol=1e-4, atol=1e-5)
+    # And the vertices at the edges are not all lit or all dark: the shadow is really there.
+    assert ((vis > 0.0) & (vis < 1.0)).sum() + (~same).sum() > 10
