@@ -400,3 +400,27 @@ def test_bvhtree_backend_gets_the_same_contact_fix(empty_scene, bpy_module):
           "before", old_e[bottom].mean(), old_b[bottom].mean())
     assert abs(new_b[bottom].mean() - 0.5) < 0.015
     assert np.abs(new_b - new_e).max() < 0.01
+
+
+@pytest.mark.blender
+@pytest.mark.cycles
+@embree
+def test_the_bake_job_passes_the_surface(empty_scene, bpy_module):
+    """The whole bake (api.bake, its own offsets, CORNER points of the flat box) has the fix:
+    the box's bottom row agrees with Cycles as the core does above."""
+    from prt_addon import api
+    from prt_addon.blender import storage
+
+    bpy, scene = bpy_module, empty_scene
+    _white_world(bpy, scene)
+    ground = _add(bpy, scene, "ground", _grid(4.0, 16))
+    box = _add(bpy, scene, "box", _box(1.0, 3), (0.0, 0.0, 0.5))
+    cycles = _cycles(bpy, scene, box)
+    api.bake([box, ground], order=1, samples=DIRECTIONS)
+    assert box.data["prt_bake"]["domain"] == "CORNER"
+    baked = storage.read_transfer(box.data)[:, 0].astype(np.float64) * np.sqrt(4.0 * np.pi)
+    _v, _t, corner_verts, normals = _read(box)
+    positions = _read(box)[0][corner_verts]
+    side = np.abs(normals[:, 2]) < 0.5
+    rc, rn = _rows(cycles, positions[:, 2], side), _rows(baked, positions[:, 2], side)
+    _assert_rows_agree(rc, rn)

@@ -105,4 +105,5 @@ def bake_points(mesh, matrix4, positions=None):
         transform_points(matrix4, positions[vert]),
         transform_normals(matrix4, normals),
         inverse.astype(np.int64),
+        vert.astype(np.int64),
     )

@@ -78,13 +78,15 @@ class BakePoints:
     """Where the transfer is evaluated: P unique (position, normal) pairs in world space.
 
     `scatter` maps each element of the attribute domain (vertex or corner) to its point; for the
-    POINT domain it is None (points are the vertices, in order).
+    POINT domain it is None (points are the vertices, in order). `vertex` is each point's vertex
+    (None for the POINT domain: point i is vertex i).
     """
 
     domain: str
     positions: np.ndarray  # (P, 3) float64 world
     normals: np.ndarray  # (P, 3) float64 world, unit (or 0)
     scatter: object  # None or (E,) int64
+    vertex: object = None  # None or (P,) int64
 
 
 def vertex_points(matrix4, positions, normals):

@@ -121,10 +121,15 @@ class BakeJob:
 
     def _computation(self, plan):
         s = self.settings
+        # The point's own surface moves each origin into its own faces as well as along the
+        # normal, so that rays from a point in another surface's plane (a box standing on the
+        # ground) do not slip under it (docs/bake.md, "Contacts"). Unshadowed: not needed.
+        surface = None if plan.occluder is None else (plan.own_vertices, plan.own_triangles)
         return transfer.TransferComputation(
             plan.points.positions, plan.points.normals, self.directions, s.order,
             occluder=plan.occluder, offset=plan.offset, self_occludes=plan.self_occludes,
             other_boxes=plan.boxes, chunk_rays=s.chunk_rays, threads=s.threads, pool=self._pool,
+            surface=surface, point_vertex=plan.points.vertex,
         )
 
     def close(self):
