@@ -50,7 +50,6 @@ import time
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 from concurrent.futures import wait as futures_wait
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -58,6 +57,10 @@ from .directions import DirectionSet
 from .sh import check_order
 from .raytrace import box_can_occlude
 from .serial_blas import matmul_serial
+from .contact import inward_tangents
+from .frames import frame_rotation, to_local_frame  # noqa: F401 - the transfer's frame, used beside it
+from .mesh import unit_normals
+from .transfer_stats import TransferResult, TransferStats, error_calibration, error_groups
 
 CHUNK_RAYS = 1 << 18
 SLICES_PER_THREAD = 4  # slices per step() and thread
@@ -71,65 +74,6 @@ RAY_BYTES = 80
 
 class Cancelled(Exception):
     """Raised by TransferComputation.run() when cancel() was called."""
-
-
-@dataclass
-class TransferStats:
-    points: int = 0
-    candidate_rays: int = 0  # points * directions
-    rays_traced: int = 0
-    skipped_below_horizon: int = 0
-    skipped_unoccludable: int = 0  # above the horizon, but nothing can occlude the point
-    skipped_shadows_off: int = 0  # above the horizon, shadows disabled
-    occluded_rays: int = 0
-    seconds: float = 0.0
-    trace_seconds: float = 0.0  # summed over threads
-
-    @property
-    def rays_skipped(self):
-        return self.skipped_below_horizon + self.skipped_unoccludable + self.skipped_shadows_off
-
-    def add(self, other):
-        for name in (
-            "points", "candidate_rays", "rays_traced", "skipped_below_horizon",
-            "skipped_unoccludable", "skipped_shadows_off", "occluded_rays", "seconds",
-            "trace_seconds",
-        ):
-            setattr(self, name, getattr(self, name) + getattr(other, name))
-        return self
-
-    def as_dict(self):
-        return {
-            "points": self.points,
-            "rays_traced": self.rays_traced,
-            "rays_skipped": self.rays_skipped,
-            "skipped_below_horizon": self.skipped_below_horizon,
-            "skipped_unoccludable": self.skipped_unoccludable,
-            "skipped_shadows_off": self.skipped_shadows_off,
-            "occluded_rays": self.occluded_rays,
-            "seconds": self.seconds,
-        }
-
-
-@dataclass
-class TransferResult:
-    coeffs: np.ndarray  # (P, n*n) float32
-    error: np.ndarray  # (P,) float32: per-point standard-error estimate (L2 over coefficients)
-    stats: TransferStats = field(default_factory=TransferStats)
-
-    def error_rms(self):
-        return float(np.sqrt(np.mean(np.square(self.error, dtype=np.float64)))) if len(self.error) else 0.0
-
-    def square_norm_sum(self):
-        """sum over points of |t|^2, accumulated in float64."""
-        return float(np.einsum("ij,ij->", self.coeffs, self.coeffs, dtype=np.float64))
-
-    def error_relative(self):
-        """RMS error estimate over RMS transfer norm (dimensionless)."""
-        if not len(self.error):
-            return 0.0
-        norm = np.sqrt(self.square_norm_sum() / len(self.coeffs))
-        return self.error_rms() / norm if norm > 0 else 0.0
 
 
 # Ray origins and directions are kept as rows of four float32 (x, y, z, 0) viewed as one 16-byte
@@ -146,13 +90,6 @@ def _rays16(xyz):
 
 def _xyz(rays16):
     return rays16.view(np.float32).reshape(-1, 4)[:, :3]
-
-
-def _unit_normals(normals):
-    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
-    length = np.sqrt(np.einsum("ij,ij->i", n, n))  # (np.linalg.norm(axis=1) is ~4 times slower)
-    ok = np.isfinite(length) & (length > 1e-12)
-    return np.divide(n, length[:, None], out=np.zeros_like(n), where=ok[:, None])
 
 
 class TransferComputation:
@@ -181,7 +118,7 @@ class TransferComputation:
             raise TypeError("directions must be a DirectionSet (core.directions.make_directions)")
         self.order = check_order(order)
         self.positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
-        self.normals = _unit_normals(normals)
+        self.normals = unit_normals(normals)
         if len(self.positions) != len(self.normals):
             raise ValueError("positions and normals must have the same length")
         count = len(self.positions)
@@ -437,193 +374,8 @@ class TransferComputation:
         return self.result()
 
 
-# inward_tangents: a fan whose mean direction s has at least this tangential length is one-sided
-# (a boundary, or a crease between differently shaded faces) and gets a unit tangent; a nearly
-# balanced fan (an interior vertex) gets a proportionally shorter one.
-FAN_ONE_SIDED = 0.25
-FAN_BLOCK = 1 << 16  # triangles per block (working memory ~10 MB)
-# Weight of a fan corner: (n_face . n_point)^FACE_POWER, clamped at 0: the corners of the face(s)
-# a point's normal comes from dominate (a flat-shaded box's side point ignores the bottom face).
-FACE_POWER_SQUARINGS = 3
-FACE_POWER = 2**FACE_POWER_SQUARINGS
-
-
-def inward_tangents(positions, normals, vertices, triangles, point_vertex=None):
-    """(P, 3) tangents, of length at most 1, pointing from each point into its own surface.
-
-    For the point's vertex a and each triangle corner (a, b, c) around it, with unit edges e1,
-    e2 along b - a and c - a, corner angle alpha and unit face normal m, the fan's mean
-    direction is
-
-        s = sum w int_corner u(theta) dtheta / sum w alpha,   w = max(0, m . n)^FACE_POWER,
-
-    the integral of the unit vector u over the corner's angle being 2 sin(alpha / 2) times its
-    bisector, |e1 - e2| (e1 + e2) / |e1 + e2|: for a flat fan s does not depend on how it is
-    triangulated (0 for a full disc, 2 / pi up a straight boundary). Its tangential part s_t =
-    s - (s . n) n points into the surface at a boundary (the foot of a wall: up the wall) or at
-    a crease (a flat box's side point: up the side, not into the bottom face) and is ~0 at an
-    interior vertex; the result is s_t / max(|s_t|, FAN_ONE_SIDED).
-    """
-    n = _unit_normals(normals)
-    count = len(n)
-    if len(np.asarray(positions).reshape(-1, 3)) != count:
-        raise ValueError("positions and normals must have the same length")
-    v = np.asarray(vertices, dtype=np.float32).reshape(-1, 3)
-    t = np.asarray(triangles).reshape(-1, 3)
-    if len(t) and (t.min() < 0 or t.max() >= len(v)):
-        raise ValueError("triangle indices out of range")
-    if point_vertex is None:
-        if count > len(v):
-            raise ValueError("more points than vertices: give point_vertex")
-        by_vertex = None
-    else:
-        pv = np.asarray(point_vertex, dtype=np.int64).ravel()
-        if len(pv) != count:
-            raise ValueError("point_vertex must give one vertex per point")
-        if count and (pv.min() < 0 or pv.max() >= len(v)):
-            raise ValueError("point_vertex out of range")
-        # The points of each vertex, grouped: vertex a has points by_vertex[first[a]:][:k[a]].
-        k = np.bincount(pv, minlength=len(v))
-        by_vertex = np.argsort(pv, kind="stable")
-        first = np.cumsum(k) - k
-    out = np.zeros((count, 3))
-    if count == 0 or len(t) == 0:
-        return out
-    # Component by component (1-D float32 arrays): numpy gathers and reduces (n, 3) rows several
-    # times slower.
-    vc = [np.ascontiguousarray(v[:, i]) for i in range(3)]
-    nc = [n[:, i].astype(np.float32) for i in range(3)]
-    sums = np.zeros((4, count))  # sum w alpha, then sum w int u dtheta
-    for t0 in range(0, len(t), FAN_BLOCK):
-        tri = [np.ascontiguousarray(t[t0 : t0 + FAN_BLOCK, j]) for j in range(3)]
-        x = [[c[i] for c in vc] for i in tri]  # x[j][axis]: corner j of each triangle
-        # Unit edges e[j] = x[j + 1] - x[j], and unit face normals.
-        e = []
-        for j in range(3):
-            ej = [x[(j + 1) % 3][i] - x[j][i] for i in range(3)]
-            length = np.sqrt(ej[0] * ej[0] + ej[1] * ej[1] + ej[2] * ej[2])
-            np.maximum(length, 1e-30, out=length)
-            e.append([c / length for c in ej])
-        m = [e[0][1] * e[1][2] - e[0][2] * e[1][1], e[0][2] * e[1][0] - e[0][0] * e[1][2],
-             e[0][0] * e[1][1] - e[0][1] * e[1][0]]
-        length = np.sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
-        np.maximum(length, 1e-30, out=length)
-        m = [c / length for c in m]
-        for j in range(3):  # corner j: e1 = e[j] (to the next corner), e2 = -e[j - 1]
-            e1, e2 = e[j], e[j - 1]
-            cos = -(e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2])
-            np.clip(cos, -1.0, 1.0, out=cos)
-            half = [e1[i] - e2[i] for i in range(3)]  # |.| = 2 cos(alpha / 2)
-            # int_corner u dtheta = 2 sin(alpha / 2) half / |half| = tan(alpha / 2) half.
-            tan = np.sqrt(np.divide(1.0 - cos, 1.0 + cos, out=np.zeros_like(cos), where=cos > -1))
-            a = tri[j]
-            if by_vertex is None:
-                point = a
-                if count < len(v):
-                    keep = np.flatnonzero(a < count)
-                    point, cos, tan = a[keep], cos[keep], tan[keep]
-                    mj, half = [c[keep] for c in m], [c[keep] for c in half]
-                else:
-                    mj = m
-            else:
-                per = k[a]
-                pair = np.repeat(np.arange(len(a)), per)  # one (corner, point) pair per point
-                rank = np.arange(len(pair)) - np.repeat(np.cumsum(per) - per, per)
-                point = by_vertex[first[a[pair]] + rank]
-                cos, tan = cos[pair], tan[pair]
-                mj, half = [c[pair] for c in m], [c[pair] for c in half]
-            if len(point) == 0:
-                continue
-            w = mj[0] * nc[0][point] + mj[1] * nc[1][point] + mj[2] * nc[2][point]
-            np.maximum(w, 0.0, out=w)
-            for _ in range(FACE_POWER_SQUARINGS):
-                w *= w
-            weights = [w * np.arccos(cos)]
-            w *= tan
-            weights += [w * c for c in half]
-            # Accumulate over the range of points touched (mesh order keeps it short).
-            lo, hi = int(point.min()), int(point.max()) + 1
-            local = point - lo
-            for i, weight in enumerate(weights):
-                sums[i, lo:hi] += np.bincount(local, weights=weight, minlength=hi - lo)
-    total = sums[0]
-    np.divide(sums[1:].T, total[:, None], out=out, where=total[:, None] > 0)
-    out -= np.einsum("ij,ij->i", out, n)[:, None] * n
-    length = np.sqrt(np.einsum("ij,ij->i", out, out))
-    out /= np.maximum(length, FAN_ONE_SIDED)[:, None]
-    return out
-
-
-def error_groups(kind):
-    """K, the number of interleaved groups of the batch-means error estimate (module docstring):
-    8 for i.i.d. directions (UNIFORM), 2 (halves) for the Fibonacci and stratified sets."""
-    return 8 if str(kind).upper() == "UNIFORM" else 2
-
-
-def error_calibration(kind, count, order):
-    """Factor applied to the batch-means estimate (module docstring; for the Fibonacci set,
-    which uses two halves, that is |t_A - t_B| / 2) (issue 6, docs/accuracy.md).
-
-    1 for i.i.d. and stratified sets (unbiased). For the Fibonacci set the halves are worse than
-    the whole by more than sqrt(2): quasi-Monte-Carlo error falls faster than N^-1/2, and when
-    N / 2 nears the n^2 coefficients the halves alias. Measured on Suzanne and a torus on a
-    ground plane (orders 2-8, 64-4096 directions) the raw ratio estimate / true error was
-    1.4-2.0 for N >= 4 n^2 and up to 7 at N = n^2; fitted: raw ratio ~ 1.5 (1 + 3.5 (n^2 / N)^2).
-    Dividing by it leaves 0.9-1.8 on those scenes (tests/test_extreme.py::
-    test_error_estimate_within_a_factor_of_two_on_a_reference_scene).
-    """
-    if str(kind).upper() != "FIBONACCI":
-        return 1.0
-    return 1.0 / (1.5 * (1.0 + 3.5 * (order * order / max(int(count), 1)) ** 2))
-
-
 def compute_transfer(positions, normals, directions, order, occluder=None, **kwargs):
     """(P, n*n) float32 transfer vectors, per-point error estimates and stats (TransferResult)."""
     return TransferComputation(positions, normals, directions, order, occluder, **kwargs).run()
 
 
-def frame_rotation(linear):
-    """(R, mirrored): the rotation part of a 3x3 matrix by polar decomposition.
-
-    linear = Q S with Q orthogonal; R = Q when det Q > 0. For a mirroring matrix (det Q < 0)
-    R = -Q is a proper rotation and `mirrored` is True: Q w = R (-w).
-    """
-    u, _s, vt = np.linalg.svd(np.asarray(linear, dtype=np.float64)[:3, :3])
-    q = u @ vt
-    if np.linalg.det(q) < 0:
-        return -q, True
-    return q, False
-
-
-def to_local_frame(coeffs, linear):
-    """World-frame transfer (P, n*n) -> coefficients of t_local(u) = t_world(Q u).
-
-    Q is the orthogonal polar factor of `linear` (the object's matrix_world, 3x3 part). With
-    Q = R a rotation this is rotation_matrix(R^-1) applied to each row. With Q = -R (negative
-    scale) the odd bands are negated too, because t_world(-R u) is the point reflection of
-    t_world rotated by R^-1, and a point reflection multiplies band l by (-1)^l.
-    """
-    from .rotation import band_matrices
-    from .sh import order_of
-
-    coeffs = np.asarray(coeffs)
-    order = order_of(coeffs.shape[1])
-    r, mirrored = frame_rotation(linear)
-    # rotation_matrix(R^-1) is block-diagonal by band: one (2l+1)^2 product per band (order^4 ->
-    # ~order^3 / 3 multiplications per row); mirrored, band l is also scaled by (-1)^l.
-    blocks = band_matrices(r.T, order)
-    band_t = [np.ascontiguousarray(block.T * (-1.0 if mirrored and l % 2 else 1.0))
-              for l, block in enumerate(blocks)]
-    bands = [slice(l * l, (l + 1) * (l + 1)) for l in range(order)]
-    out = np.empty(coeffs.shape, dtype=coeffs.dtype)
-    # float64 maths in blocks of 1024 rows through two reused buffers (fresh multi-megabyte
-    # temporaries cost more in page faults than the product), with serial BLAS calls.
-    rows = 1024
-    block, product = np.empty((rows, coeffs.shape[1])), np.empty((rows, coeffs.shape[1]))
-    for r0 in range(0, len(coeffs), rows):
-        n = min(rows, len(coeffs) - r0)
-        block[:n] = coeffs[r0 : r0 + n]
-        for b, mb_t in zip(bands, band_t):
-            matmul_serial(block[:n, b], mb_t, out=product[:n, b])
-        out[r0 : r0 + n] = product[:n]
-    return out
