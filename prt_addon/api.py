@@ -118,3 +118,14 @@ def bake_status(obj, reason=False):
 
     state, why = _job.status(obj)
     return (state, why) if reason else state
+
+def export_gltf(path, objects=None, scene=None):
+    """Write the baked objects (default: every baked mesh of the scene) and the scene's lighting
+    to a binary glTF file `path` (.glb) through Blender's glTF exporter; returns the path.
+    The transfer, rotated into glTF's Y-up frame, is in the attributes _PRT_T0, _PRT_T1, ...,
+    the metadata and the lighting in the extras "PRT_lighting" (docs/export.md). The user's data,
+    selection and active object are left as they were. Raises ValueError with a clear message
+    (nothing baked, a stale bake, no lighting, a path that cannot be written); no file is left."""
+    from .blender.export import gltf as _gltf
+
+    return _gltf.export_gltf(path, objects, scene)

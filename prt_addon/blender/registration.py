@@ -12,12 +12,13 @@ from .bake import runner
 from .display import handlers
 from .ops import bake as bake_ops
 from .ops import display as display_ops
+from .ops import export as export_ops
 from .ops import world as world_ops
 from .ui import panels, properties
 
 # Order matters: property groups before the operators and panels that use them; the display's
 # handlers after the properties they read; running bakes are stopped before anything goes.
-MODULES = [properties, world_ops, bake_ops, display_ops, panels, handlers, runner]
+MODULES = [properties, world_ops, bake_ops, display_ops, export_ops, panels, handlers, runner]
 
 _registered = []
 

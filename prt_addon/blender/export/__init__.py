@@ -1,0 +1,1 @@
+"""Export of baked scenes to other engines (glTF binary with the PRT data)."""

@@ -1,0 +1,257 @@
+"""Export of baked objects to a binary glTF (.glb) with the transfer and the world lighting.
+
+Blender's own glTF exporter writes the file: the transfer is copied into temporary FLOAT_COLOR
+attributes `_PRT_T0`, `_PRT_T1`, ... (custom attributes it exports as VEC4 FLOAT accessors),
+rotated into glTF's Y-up frame; the PRT metadata and the lighting are added to the JSON chunk
+afterwards (glb). The user's attributes, selection and active object are restored in every
+case, and the file appears only when complete (temporary file renamed). docs/export.md is the
+format.
+"""
+
+import os
+import uuid
+
+import bpy
+import numpy as np
+
+from ...core import rotation as _rotation
+from .. import storage
+from ..world import nodes as _nodes
+from ..world import projection as _world
+from . import glb
+
+ATTRIBUTE_PREFIX = "_PRT_T"
+EXTRAS_KEY = "PRT_lighting"
+FORMAT_VERSION = 1
+
+# Blender (Z up) to glTF (Y up) coordinates, as the exporter's export_yup: (x, y, z) -> (x, z, -y).
+BLENDER_TO_GLTF = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+
+
+class ExportError(ValueError):
+    """An export refused or failed, with a message for the user."""
+
+
+def attribute_name(k):
+    return f"{ATTRIBUTE_PREFIX}{k}"
+
+
+def to_gltf_frame(coeffs):
+    """SH coefficients (n*n, ...) of a function in a Blender frame -> the same function in the
+    glTF frame (f'(C w) = f(w), C = BLENDER_TO_GLTF)."""
+    coeffs = np.asarray(coeffs, dtype=np.float64)
+    n = int(round(np.sqrt(coeffs.shape[0])))
+    return _rotation.rotation_matrix(BLENDER_TO_GLTF, n) @ coeffs
+
+
+def _ensure_exporter():
+    if hasattr(bpy.ops.export_scene, "gltf") and "gltf" in dir(bpy.ops.export_scene):
+        return
+    import addon_utils
+
+    addon_utils.enable("io_scene_gltf2", default_set=True, persistent=False)
+    if "gltf" not in dir(bpy.ops.export_scene):
+        raise ExportError("Blender's glTF exporter (io_scene_gltf2) is not available")
+
+
+def _check_path(path):
+    path = os.path.abspath(bpy.path.abspath(str(path)))
+    if not path.lower().endswith(".glb"):
+        raise ExportError(f"the export file must end in .glb: '{path}'")
+    folder = os.path.dirname(path)
+    if not os.path.isdir(folder):
+        raise ExportError(f"cannot write '{path}': the folder '{folder}' does not exist")
+    if not os.access(folder, os.W_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
+        raise ExportError(f"cannot write '{path}': permission denied")
+    if os.path.isdir(path):
+        raise ExportError(f"cannot write '{path}': it is a folder")
+    return path
+
+
+def _plan(objects, scene):
+    """[(object, BakeRecord or None)] of the objects to export; raises ExportError."""
+    if objects is None:
+        objects = [o for o in scene.objects if o.type == "MESH" and o.data.get(storage.RECORD) is not None]
+    elif isinstance(objects, bpy.types.Object):
+        objects = [objects]
+    objects = list(objects)
+    plan, layer = [], bpy.context.view_layer
+    for obj in objects:
+        if obj.type != "MESH":
+            plan.append((obj, None))
+            continue
+        state = storage.bake_state(obj.data)
+        if state.status == "STALE":
+            raise ExportError(f"'{obj.name}': the bake is stale ({state.reason}), so the export would not "
+                              f"match the mesh")
+        plan.append((obj, state.bake if state.status == "FRESH" else None))
+    if not any(bake is not None for _o, bake in plan):
+        raise ExportError("nothing to export: none of the objects holds a PRT bake (bake them first)")
+    for obj, _bake in plan:
+        if obj.name not in layer.objects:
+            raise ExportError(f"'{obj.name}' is not in the view layer '{layer.name}', so it cannot be exported")
+    return plan
+
+
+def world_extras(scene):
+    """The scene's lighting as JSON-ready data in glTF's world frame; raises ExportError."""
+    coeffs = _world.current_world_coeffs(scene)
+    if coeffs is None:
+        raise ExportError("the scene has no PRT lighting: project the world first (PRT tab > Project World)")
+    from ..display import lighting as _lighting
+
+    lights = []
+    for light in _lighting.world_lights(scene):
+        lights.append({
+            "direction": (BLENDER_TO_GLTF @ np.asarray(light.direction, dtype=np.float64)).tolist(),
+            "power": np.asarray(light.power, dtype=np.float64).tolist(),
+            "angle": float(light.angle),
+        })
+    n = int(round(np.sqrt(coeffs.shape[0])))
+    return {
+        "version": FORMAT_VERSION,
+        "order": n,
+        "frame": "GLTF_WORLD",
+        "sh_convention": "REAL_ORTHONORMAL_NO_CONDON_SHORTLEY",
+        "coefficients": to_gltf_frame(coeffs).tolist(),
+        "lights": lights,
+        "mapping_rotation_euler_xyz": [float(a) for a in _nodes.mapping_rotation_euler(scene.world)]
+        if scene.world is not None else [0.0, 0.0, 0.0],
+        "blender_sh_rotation": _world.current_rotation(scene).tolist(),
+    }
+
+
+def mesh_extras(bake):
+    return {
+        "version": FORMAT_VERSION,
+        "order": bake.order,
+        "coefficients": bake.order * bake.order,
+        "attributes": [attribute_name(k) for k in range(bake.count)],
+        "domain": bake.domain,
+        "frame": "GLTF_NODE_LOCAL",
+        "sh_convention": "REAL_ORTHONORMAL_NO_CONDON_SHORTLEY",
+        "per_channel": False,
+        "shadows": bool(bake.record.get("shadows", False)),
+    }
+
+
+def _add_attributes(mesh, bake, added):
+    """Write the transfer (rotated to glTF's frame) as _PRT_Tk, appending each name to `added`."""
+    values = storage.read_transfer(mesh, bake).astype(np.float64)
+    rotated = to_gltf_frame(values.T).T.astype(np.float32)
+    packed = np.zeros((rotated.shape[0], bake.count * 4), dtype=np.float32)
+    packed[:, : rotated.shape[1]] = rotated
+    for k in range(bake.count):
+        name = attribute_name(k)
+        if mesh.attributes.get(name) is not None:
+            raise ExportError(f"mesh '{mesh.name}' already has an attribute '{name}'; rename it to export")
+        added.append(name)
+        mesh.attributes.new(name, "FLOAT_COLOR", bake.domain)
+        mesh.attributes[name].data.foreach_set("color", np.ascontiguousarray(packed[:, 4 * k: 4 * k + 4]).ravel())
+
+
+def _state(plan):
+    layer = bpy.context.view_layer
+    meshes = {o.data for o, bake in plan if bake is not None}
+    colors = {m: (m.color_attributes.active_color_name, m.color_attributes.default_color_name) for m in meshes}
+    return {
+        "selected": [o for o in layer.objects if o.select_get()],
+        "active": layer.objects.active,
+        "colors": colors,
+    }
+
+
+def _restore(state, added):
+    layer = bpy.context.view_layer
+    for mesh, names in added:
+        for name in names:
+            attr = mesh.attributes.get(name)
+            if attr is not None:
+                mesh.attributes.remove(attr)
+    for mesh, (active, default) in state["colors"].items():
+        names = {a.name for a in mesh.color_attributes}
+        if active in names and mesh.color_attributes.active_color_name != active:
+            mesh.color_attributes.active_color_name = active
+        if default in names and mesh.color_attributes.default_color_name != default:
+            mesh.color_attributes.default_color_name = default
+        mesh.update()
+    selected = set(state["selected"])
+    for obj in layer.objects:
+        want = obj in selected
+        if obj.select_get() != want:
+            obj.select_set(want)
+    layer.objects.active = state["active"]
+
+
+def _annotate(document, plan, world):
+    """Add the extras: the scene's lighting, and each baked mesh's metadata (by node name)."""
+    scenes = document.get("scenes", [])
+    for gltf_scene in scenes:
+        gltf_scene.setdefault("extras", {})[EXTRAS_KEY] = world
+    by_name = {o.name: bake for o, bake in plan if bake is not None}
+    meshes = document.get("meshes", [])
+    found = set()
+    for node in document.get("nodes", []):
+        bake = by_name.get(node.get("name"))
+        if bake is None or "mesh" not in node:
+            continue
+        mesh = meshes[node["mesh"]]
+        extras = mesh.get("extras")
+        mesh["extras"] = extras = extras if isinstance(extras, dict) else {}
+        extras[EXTRAS_KEY] = mesh_extras(bake)
+        found.add(node["name"])
+    missing = sorted(set(by_name) - found)
+    if missing:
+        raise ExportError(f"the glTF exporter wrote no mesh for {', '.join(missing)}")
+
+
+def export_gltf(path, objects=None, scene=None):
+    """Write the objects (default: the scene's baked meshes) to `path` (.glb); returns the path.
+    Raises ExportError (a ValueError) with a user-facing message; then no file is left."""
+    scene = bpy.context.scene if scene is None else scene
+    path = _check_path(path)
+    if bpy.context.mode != "OBJECT":
+        raise ExportError("leave Edit Mode (or any other mode) to export")
+    plan = _plan(objects, scene)
+    world = world_extras(scene)
+    _ensure_exporter()
+    state = _state(plan)
+    added = []
+    temp = os.path.join(os.path.dirname(path), f".{os.path.basename(path)}.{uuid.uuid4().hex[:8]}.tmp.glb")
+    try:
+        for obj, bake in plan:
+            if bake is not None and obj.data not in [m for m, _n in added]:
+                added.append((obj.data, []))
+                _add_attributes(obj.data, bake, added[-1][1])
+        for obj in bpy.context.view_layer.objects:
+            obj.select_set(False)
+        for obj, _bake in plan:
+            obj.select_set(True)
+        bpy.context.view_layer.objects.active = plan[0][0]
+        # A mesh without material exports its active colour attribute as COLOR_0: not when that is
+        # a transfer attribute (the first colour attribute a bake creates becomes the active one).
+        active_is_transfer = any(
+            storage.is_transfer_attribute(m.color_attributes.active_color_name or "")
+            or (m.color_attributes.active_color_name or "").startswith(ATTRIBUTE_PREFIX)
+            for m, _n in added)
+        try:
+            result = bpy.ops.export_scene.gltf(
+                filepath=temp, export_format="GLB", use_selection=True, export_attributes=True,
+                export_extras=True, export_yup=True, export_apply=False, export_animations=False,
+                export_all_vertex_colors=False, export_active_vertex_color_when_no_material=not active_is_transfer,
+            )
+        except RuntimeError as error:
+            raise ExportError(f"the glTF exporter failed: {error}") from None
+        if "FINISHED" not in result or not os.path.isfile(temp):
+            raise ExportError("the glTF exporter did not write the file")
+        document, chunks = glb.read(temp)
+        _annotate(document, plan, world)
+        glb.write(temp, document, chunks)
+        os.replace(temp, path)
+    except OSError as error:
+        raise ExportError(f"cannot write '{path}': {error.strerror or error}") from None
+    finally:
+        if os.path.exists(temp):
+            os.remove(temp)
+        _restore(state, added)
+    return path
