@@ -1,7 +1,7 @@
 """Fallback occluder on mathutils.bvhtree.BVHTree (same protocol as core.raytrace.EmbreeOccluder).
 
 ray_cast() holds the GIL and is called once per ray from Python, so this backend is single
-threaded (max_threads = 1) and 30 to 40 times slower than Embree (docs/bake.md); it exists for platforms
+threaded (max_threads = 1) and much slower than Embree (measured in docs/bake.md); it exists for platforms
 without an embreex wheel (Linux and Windows on ARM).
 """
 
