@@ -222,21 +222,19 @@ def test_bad_input_leaves_nothing(baked, bpy_module, tmp_path):
     cube.attributes.remove(cube.attributes["_PRT_T2"])
     # The exporter itself failing.
     before = _user_state(bpy)
-    real = bpy.ops.export_scene.gltf
     from prt_addon.blender.export import gltf
 
-    class Failing:
-        def gltf(self, **_kw):
-            raise RuntimeError("simulated failure")
+    def failing(path, _meshes):
+        open(path, "wb").close()  # a partial file, which must not stay
+        raise gltf.ExportError("the glTF exporter failed: simulated failure")
 
-    gltf_ops = gltf.bpy.ops
+    real = gltf._run_exporter
+    gltf._run_exporter = failing
     try:
-        gltf.bpy.ops = type("Ops", (), {"export_scene": Failing()})()
         with pytest.raises(ValueError, match="simulated failure"):
             api.export_gltf(str(tmp_path / "c.glb"))
     finally:
-        gltf.bpy.ops = gltf_ops
-    assert bpy.ops.export_scene.gltf is not None and real is not None
+        gltf._run_exporter = real
     assert _user_state(bpy) == before
     # A stale bake.
     sphere = objs["sphere"].data
@@ -245,6 +243,20 @@ def test_bad_input_leaves_nothing(baked, bpy_module, tmp_path):
         api.export_gltf(str(tmp_path / "d.glb"))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["locked"]
     assert not list(locked.iterdir())
+
+
+def test_exporter_add_on_enabled_when_needed(baked, bpy_module, tmp_path):
+    import addon_utils
+
+    from prt_addon import api
+
+    addon_utils.disable("io_scene_gltf2")
+    try:
+        assert "gltf" not in dir(bpy_module.ops.export_scene)
+        api.export_gltf(str(tmp_path / "e.glb"))
+        assert (tmp_path / "e.glb").is_file()
+    finally:
+        addon_utils.enable("io_scene_gltf2", default_set=True)
 
 
 def test_operator_and_menu(baked, bpy_module, tmp_path):

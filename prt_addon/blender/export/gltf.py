@@ -45,7 +45,7 @@ def to_gltf_frame(coeffs):
 
 
 def _ensure_exporter():
-    if hasattr(bpy.ops.export_scene, "gltf") and "gltf" in dir(bpy.ops.export_scene):
+    if "gltf" in dir(bpy.ops.export_scene):
         return
     import addon_utils
 
@@ -205,10 +205,30 @@ def _annotate(document, plan, world):
         raise ExportError(f"the glTF exporter wrote no mesh for {', '.join(missing)}")
 
 
+def _run_exporter(path, meshes):
+    """Blender's glTF exporter on the selection, to `path`; raises ExportError."""
+    # A mesh without material exports its active colour attribute as COLOR_0: not when that is
+    # a transfer attribute (the first colour attribute a bake creates becomes the active one).
+    active_is_transfer = any(
+        storage.is_transfer_attribute(m.color_attributes.active_color_name or "")
+        or (m.color_attributes.active_color_name or "").startswith(ATTRIBUTE_PREFIX)
+        for m in meshes)
+    try:
+        return bpy.ops.export_scene.gltf(
+            filepath=path, export_format="GLB", use_selection=True, export_attributes=True,
+            export_extras=True, export_yup=True, export_apply=False, export_animations=False,
+            export_all_vertex_colors=False, export_active_vertex_color_when_no_material=not active_is_transfer,
+        )
+    except RuntimeError as error:
+        raise ExportError(f"the glTF exporter failed: {error}") from None
+
+
 def export_gltf(path, objects=None, scene=None):
     """Write the objects (default: the scene's baked meshes) to `path` (.glb); returns the path.
     Raises ExportError (a ValueError) with a user-facing message; then no file is left."""
     scene = bpy.context.scene if scene is None else scene
+    if scene != bpy.context.scene:
+        raise ExportError(f"only the current scene can be exported (not '{scene.name}'): switch to it first")
     path = _check_path(path)
     if bpy.context.mode != "OBJECT":
         raise ExportError("leave Edit Mode (or any other mode) to export")
@@ -228,20 +248,7 @@ def export_gltf(path, objects=None, scene=None):
         for obj, _bake in plan:
             obj.select_set(True)
         bpy.context.view_layer.objects.active = plan[0][0]
-        # A mesh without material exports its active colour attribute as COLOR_0: not when that is
-        # a transfer attribute (the first colour attribute a bake creates becomes the active one).
-        active_is_transfer = any(
-            storage.is_transfer_attribute(m.color_attributes.active_color_name or "")
-            or (m.color_attributes.active_color_name or "").startswith(ATTRIBUTE_PREFIX)
-            for m, _n in added)
-        try:
-            result = bpy.ops.export_scene.gltf(
-                filepath=temp, export_format="GLB", use_selection=True, export_attributes=True,
-                export_extras=True, export_yup=True, export_apply=False, export_animations=False,
-                export_all_vertex_colors=False, export_active_vertex_color_when_no_material=not active_is_transfer,
-            )
-        except RuntimeError as error:
-            raise ExportError(f"the glTF exporter failed: {error}") from None
+        result = _run_exporter(temp, [m for m, _n in added])
         if "FINISHED" not in result or not os.path.isfile(temp):
             raise ExportError("the glTF exporter did not write the file")
         document, chunks = glb.read(temp)
