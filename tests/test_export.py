@@ -382,3 +382,22 @@ def test_basis_table_in_docs():
     table = [0.282095, 0.488603 * y, 0.488603 * z, 0.488603 * x, 1.092548 * x * y, 1.092548 * y * z,
              0.315392 * (3 * z * z - 1), 1.092548 * x * z, 0.546274 * (x * x - y * y)]
     assert np.allclose(api.sh_basis(d, 3)[0], table, atol=2e-6)
+
+
+def test_shared_mesh_and_parent(baked, bpy_module, tmp_path):
+    """A linked duplicate (one mesh, two objects) and a parented object export once per mesh."""
+    from prt_addon import api
+
+    bpy = bpy_module
+    scene, objs = baked
+    twin = bpy.data.objects.new("twin", objs["cube"].data)
+    scene.collection.objects.link(twin)
+    twin.parent = objs["sphere"]
+    twin.location = (2.0, 0.0, 0.0)
+    before = _user_state(bpy)
+    path = api.export_gltf(str(tmp_path / "shared.glb"))
+    assert _user_state(bpy) == before
+    document, _accessor = _read_glb(path)
+    nodes = {n["name"]: n for n in document["nodes"]}
+    assert nodes["twin"]["mesh"] == nodes[objs["cube"].name]["mesh"]
+    assert document["meshes"][nodes["twin"]["mesh"]]["extras"]["PRT_lighting"]["order"] == 4
