@@ -7,7 +7,10 @@ quadrature on the interval where f is non-zero, which stays accurate for tiny su
 closed form (P_{l-1}(cos a) - P_{l+1}(cos a)) / (2l + 1) loses digits to cancellation.
 """
 
+from __future__ import annotations
+
 import numpy as np
+import numpy.typing as npt
 
 from .sh import check_order, legendre_columns, zonal_to_coeffs
 
@@ -24,24 +27,24 @@ def _zonal_integral(order, lo, hi, weight_power):
     return zonal
 
 
-def clamped_cosine_zonal(order):
+def clamped_cosine_zonal(order: int) -> np.ndarray:
     """Zonal coefficients of max(0, cos theta) / pi: 0.2820948, 0.3257350, 0.1576958, 0, ..."""
     return _zonal_integral(check_order(order), 0.0, 1.0, 1) / np.pi
 
 
-def clamped_cosine_coeffs(order, normal=(0.0, 0.0, 1.0)):
+def clamped_cosine_coeffs(order: int, normal: npt.ArrayLike = (0.0, 0.0, 1.0)) -> np.ndarray:
     """(order**2,) coefficients of the diffuse transfer max(0, n . w) / pi about `normal`."""
     return zonal_to_coeffs(clamped_cosine_zonal(order), normal)
 
 
-def cap_zonal(order, half_angle):
+def cap_zonal(order: int, half_angle: float) -> np.ndarray:
     """Zonal coefficients of the indicator of a spherical cap of angular radius half_angle."""
     if not 0.0 <= half_angle <= np.pi:
         raise ValueError(f"cap half angle must be in [0, pi], got {half_angle}")
     return _zonal_integral(check_order(order), float(np.cos(half_angle)), 1.0, 0)
 
 
-def cap_coeffs(order, axis, half_angle, radiance=1.0):
+def cap_coeffs(order: int, axis: npt.ArrayLike, half_angle: float, radiance: npt.ArrayLike = 1.0) -> np.ndarray:
     """Coefficients of a sun disk: constant `radiance` (scalar or RGB) inside the cap, 0 outside."""
     zonal = cap_zonal(order, half_angle)
     radiance = np.asarray(radiance, dtype=np.float64)

@@ -6,7 +6,10 @@ tangent, into its own faces, the origin lies on the side where its own surface i
 "Contacts").
 """
 
+from __future__ import annotations
+
 import numpy as np
+import numpy.typing as npt
 
 from .mesh import unit_normals
 
@@ -28,7 +31,8 @@ FACE_POWER_SQUARINGS = 3
 FACE_POWER = 2**FACE_POWER_SQUARINGS
 
 
-def inward_tangents(positions, normals, vertices, triangles, point_vertex=None):
+def inward_tangents(positions: npt.ArrayLike, normals: npt.ArrayLike, vertices: npt.ArrayLike, triangles: npt.ArrayLike,
+                    point_vertex: npt.ArrayLike | None = None) -> np.ndarray:
     """(P, 3) tangents, of length at most 1, pointing from each point into its own surface.
 
     For the point's vertex a and each triangle corner (a, b, c) around it, with unit edges e1,

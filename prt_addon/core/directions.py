@@ -13,6 +13,8 @@ Every set is reproducible from (kind, count, seed):
   canonical, unrotated set.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -29,11 +31,11 @@ def _from_z_phi(z, phi):
     return np.stack([s * np.cos(phi), s * np.sin(phi), z], axis=1)
 
 
-def uniform_directions(count, rng):
+def uniform_directions(count: int, rng: np.random.Generator) -> np.ndarray:
     return _from_z_phi(rng.uniform(-1.0, 1.0, count), rng.uniform(0.0, 2.0 * np.pi, count))
 
 
-def stratified_directions(count, rng):
+def stratified_directions(count: int, rng: np.random.Generator) -> np.ndarray:
     rows = max(1, int(round(np.sqrt(count / 2.0))))
     per_row = np.full(rows, count // rows)
     per_row[: count % rows] += 1
@@ -46,7 +48,7 @@ def stratified_directions(count, rng):
     return _from_z_phi(z, phi)
 
 
-def random_rotation(rng):
+def random_rotation(rng: np.random.Generator) -> np.ndarray:
     """Uniformly random 3x3 rotation (QR of a Gaussian matrix with the sign fix, Mezzadri 2007)."""
     q, r = np.linalg.qr(rng.normal(size=(3, 3)))
     q = q * np.sign(np.diag(r))
@@ -55,7 +57,7 @@ def random_rotation(rng):
     return q
 
 
-def fibonacci_directions(count, rng=None):
+def fibonacci_directions(count: int, rng: np.random.Generator | None = None) -> np.ndarray:
     k = np.arange(count, dtype=np.float64)
     d = _from_z_phi(1.0 - (2.0 * k + 1.0) / count, k * GOLDEN_ANGLE)
     if rng is not None:
@@ -74,10 +76,10 @@ class DirectionSet:
     _basis: dict = field(default_factory=dict, repr=False)
 
     @property
-    def weight(self):
+    def weight(self) -> float:
         return FOUR_PI / self.count
 
-    def basis(self, order):
+    def basis(self, order: int) -> np.ndarray:
         """(N, order**2) SH table at the directions, computed once per order (lower orders slice)."""
         order = check_order(order)
         for cached_order, table in self._basis.items():
@@ -88,7 +90,7 @@ class DirectionSet:
         return table
 
 
-def make_directions(kind="FIBONACCI", count=256, seed=0):
+def make_directions(kind: str = "FIBONACCI", count: int = 256, seed: int | None = 0) -> DirectionSet:
     """A reproducible DirectionSet of `count` unit vectors (float64, (count, 3))."""
     kind = str(kind).upper()
     if kind not in KINDS:

@@ -15,6 +15,8 @@ the whole path is checked once per process by tracing known rays. When anything 
 tested.
 """
 
+from __future__ import annotations
+
 import ctypes
 import gc
 import glob
@@ -22,6 +24,7 @@ import os
 import sys
 import threading
 import types
+from typing import Any
 
 import numpy as np
 
@@ -171,12 +174,12 @@ def _ready():
         return _state["lib"]
 
 
-def available():
+def available() -> bool:
     """True when `attach_triangles` can be used with this embreex on this platform."""
     return _ready() is not None
 
 
-def attach_triangles(scene, vertices, triangles):
+def attach_triangles(scene: Any, vertices: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Attach validated float32 (V, 3) vertices and int32 (T, 3) triangles to an uncommitted
     embreex EmbreeScene without copying them element by element; returns the buffers Embree
     reads (keep them referenced for as long as the scene is used)."""

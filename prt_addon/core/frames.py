@@ -1,11 +1,14 @@
 """The object's local frame of a transfer: the rotation part of a transform, and SH into it."""
 
+from __future__ import annotations
+
 import numpy as np
+import numpy.typing as npt
 
 from .serial_blas import matmul_serial
 
 
-def frame_rotation(linear):
+def frame_rotation(linear: npt.ArrayLike) -> tuple[np.ndarray, bool]:
     """(R, mirrored): the rotation part of a 3x3 matrix by polar decomposition.
 
     linear = Q S with Q orthogonal; R = Q when det Q > 0. For a mirroring matrix (det Q < 0)
@@ -18,7 +21,7 @@ def frame_rotation(linear):
     return q, False
 
 
-def to_local_frame(coeffs, linear):
+def to_local_frame(coeffs: npt.ArrayLike, linear: npt.ArrayLike) -> np.ndarray:
     """World-frame transfer (P, n*n) -> coefficients of t_local(u) = t_world(Q u).
 
     Q is the orthogonal polar factor of `linear` (the object's matrix_world, 3x3 part). With

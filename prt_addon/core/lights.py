@@ -12,9 +12,14 @@ radiance power / pi * max(0, n . s) * V. Directions are in the image (world) fra
 rotation R (direction in world = R @ direction in image frame) use `rotate_lights`.
 """
 
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from .projection import as_rgb_image, column_azimuths, row_elevations
 from .serial_blas import matmul_serial
@@ -111,7 +116,7 @@ def _threshold(lum, solid, world_power):
     return max(threshold, float(values[order[first]]))
 
 
-def auto_threshold(pixels):
+def auto_threshold(pixels: npt.ArrayLike) -> float:
     """Luminance threshold T above which texels are split off as lights.
 
     T = max(8 * mean, T_compact): mean is the solid-angle-weighted mean luminance of the image
@@ -196,7 +201,8 @@ def _connected_components(count, sources, targets):
     return index[parent], len(roots)
 
 
-def extract_lights(pixels, threshold=None, max_lights=4, *, min_share=MIN_SHARE):
+def extract_lights(pixels: npt.ArrayLike, threshold: float | None = None, max_lights: int = 4, *,
+                   min_share: float = MIN_SHARE) -> tuple[np.ndarray, list[Light]]:
     """Split the compact bright sources of an equirect image: -> (residual (H, W, 3), [Light]).
 
     Texels with luminance above T (threshold, or auto_threshold) are scaled to luminance T
@@ -264,13 +270,13 @@ def extract_lights(pixels, threshold=None, max_lights=4, *, min_share=MIN_SHARE)
     return residual, lights
 
 
-def lights_to_array(lights):
+def lights_to_array(lights: Iterable[Light]) -> list[float]:
     """Flat list of floats for storage: per light direction (3), power (3), angle (1)."""
     values = [np.concatenate([light.direction, light.power, [light.angle]]) for light in lights]
     return np.concatenate(values).tolist() if values else []
 
 
-def lights_from_array(values):
+def lights_from_array(values: npt.ArrayLike) -> list[Light]:
     """Inverse of lights_to_array. solid_angle is the disc's 2 pi (1 - cos angle); texels 0."""
     values = np.asarray(values, dtype=np.float64).ravel()
     if values.size % FLOATS_PER_LIGHT or not np.all(np.isfinite(values)):
@@ -286,7 +292,7 @@ def lights_from_array(values):
     return lights
 
 
-def rotate_lights(lights, rotation):
+def rotate_lights(lights: Iterable[Light], rotation: npt.ArrayLike) -> list[Light]:
     """Lights with direction R @ direction (R maps the image frame to the world frame, like the
     rotation applied to the world's SH)."""
     rotation = np.asarray(rotation, dtype=np.float64).reshape(3, 3)
@@ -295,7 +301,7 @@ def rotate_lights(lights, rotation):
             for light in lights]
 
 
-def disc_directions(direction, angle, count):
+def disc_directions(direction: npt.ArrayLike, angle: float, count: int) -> np.ndarray:
     """(count, 3) unit directions over the cap of half-angle `angle` about `direction`.
 
     Stratified in solid angle: `count` equal-area rings, the innermost one's sample at the centre
@@ -335,7 +341,8 @@ def _unit_rows(vectors):
     return np.divide(v, length[:, None], out=np.zeros_like(v), where=ok[:, None])
 
 
-def light_irradiance(normals, lights, visibility=None):
+def light_irradiance(normals: npt.ArrayLike, lights: Sequence[Light],
+                     visibility: npt.ArrayLike | None = None) -> np.ndarray:
     """(P, 3) radiance shown under the lights: sum_l power_l / pi * max(0, n . s_l) * V[:, l].
 
     That is E / pi, the unit of the SH shading sum_i L_i t_i (transfer max(0, n . w) / pi * V).
@@ -355,7 +362,8 @@ def light_irradiance(normals, lights, visibility=None):
     return matmul_serial(weight, powers)
 
 
-def light_visibility(points, normals, lights, occluder, rays_per_light=16, offset=None):
+def light_visibility(points: npt.ArrayLike, normals: npt.ArrayLike, lights: Sequence[Light], occluder: Any,
+                     rays_per_light: int = 16, offset: npt.ArrayLike | None = None) -> np.ndarray:
     """(P, L) fraction of each light's disc seen from each point, by rays to disc_directions.
 
     occluder follows the core.raytrace protocol: occluded(origins f32 (N, 3), dirs f32 (N, 3))

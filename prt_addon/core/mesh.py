@@ -3,14 +3,19 @@
 The Blender readers (prt_addon.blender.mesh_read) fill numpy arrays and call these functions.
 """
 
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from .serial_blas import matmul_serial
 
 
-def triangulate_quads(corner_verts, starts, sizes, positions):
+def triangulate_quads(corner_verts: np.ndarray, starts: np.ndarray, sizes: np.ndarray,
+                      positions: npt.ArrayLike) -> np.ndarray:
     """Vertex triangles of faces of 3 or 4 corners, as Blender's mesh tessellation
     (blenkernel mesh_tessellate.cc): a triangle is (0, 1, 2); a quad is (0, 1, 2), (0, 2, 3),
     or (0, 1, 3), (1, 2, 3) when the first split folds over (blenlib's
@@ -50,16 +55,16 @@ def triangulate_quads(corner_verts, starts, sizes, positions):
     return corner_verts[corners]
 
 
-def matrix_to_numpy(matrix):
+def matrix_to_numpy(matrix: Iterable[Iterable[float]]) -> np.ndarray:
     return np.array([list(row) for row in matrix], dtype=np.float64)
 
 
-def transform_points(matrix4, points):
+def transform_points(matrix4: npt.ArrayLike, points: npt.ArrayLike) -> np.ndarray:
     m = np.asarray(matrix4, dtype=np.float64)
     return matmul_serial(np.asarray(points, dtype=np.float64), m[:3, :3].T) + m[:3, 3]
 
 
-def transform_normals(matrix4, normals):
+def transform_normals(matrix4: npt.ArrayLike, normals: npt.ArrayLike) -> np.ndarray:
     """Normals under the inverse transpose of the linear part, renormalised (0 stays 0)."""
     linear = np.asarray(matrix4, dtype=np.float64)[:3, :3]
     # inv(linear)^T = cofactor matrix / det (rows: cross products of the rows); the normals are
@@ -89,7 +94,7 @@ class BakePoints:
     vertex: object = None  # None or (P,) int64
 
 
-def vertex_points(matrix4, positions, normals):
+def vertex_points(matrix4: npt.ArrayLike, positions: npt.ArrayLike, normals: npt.ArrayLike) -> BakePoints:
     """POINT-domain BakePoints: one point per vertex, in order."""
     return BakePoints(
         "POINT", transform_points(matrix4, positions), transform_normals(matrix4, normals), None
@@ -102,7 +107,8 @@ def vertex_points(matrix4, positions, normals):
 NORMAL_TOLERANCE = 1e-6
 
 
-def vertex_normal_pairs(corner_verts, corner_normals, vertex_count):
+def vertex_normal_pairs(corner_verts: np.ndarray, corner_normals: npt.ArrayLike,
+                        vertex_count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The unique (vertex, normal) pairs of a mesh's corners: (vertex index, normal, inverse),
     sorted by vertex, with inverse mapping each corner to its pair. Corner normals within
     NORMAL_TOLERANCE of their vertex's reference normal (one of its corners') are that normal."""
@@ -135,7 +141,7 @@ def vertex_normal_pairs(corner_verts, corner_normals, vertex_count):
     return ordered_vert[new], ordered_bits[new].view(np.float32), inverse
 
 
-def concatenate_parts(parts):
+def concatenate_parts(parts: Sequence[tuple[object, np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
     if not parts:
         return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32)
     offsets = np.cumsum([0] + [len(v) for _o, v, _t in parts[:-1]])
@@ -144,7 +150,7 @@ def concatenate_parts(parts):
     return vertices, triangles
 
 
-def unit_normals(normals):
+def unit_normals(normals: npt.ArrayLike) -> np.ndarray:
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     length = np.sqrt(np.einsum("ij,ij->i", n, n))  # (np.linalg.norm(axis=1) is ~4 times slower)
     ok = np.isfinite(length) & (length > 1e-12)

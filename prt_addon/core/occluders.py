@@ -4,14 +4,24 @@ The backends are injected (`builders`: name -> class taking (vertices, triangles
 module needs no Blender: the Blender layer passes its BVH-tree occluder beside Embree's.
 """
 
+from __future__ import annotations
+
 import threading
+from collections.abc import Callable, Mapping
+from concurrent.futures import Executor
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import numpy as np
+    import numpy.typing as npt
 
 
 class LazyOccluder:
     """The real occluder, built on the first query or in the background after start() (the
     scene's Embree occluder: its build overlaps the job's set-up); queries wait for the build."""
 
-    def __init__(self, backend, vertices, triangles, builders):
+    def __init__(self, backend: str, vertices: npt.ArrayLike, triangles: npt.ArrayLike,
+                 builders: Mapping[str, Callable[..., Any]]) -> None:
         self.name = backend
         self._builder = builders[backend]
         self.max_threads = int(getattr(self._builder, "max_threads", 1))
@@ -20,7 +30,7 @@ class LazyOccluder:
         self._lock = threading.Lock()
         self._started = None
 
-    def start(self, pool):
+    def start(self, pool: Executor) -> None:
         """Build in the background on `pool` (Embree only: the BVH build releases the GIL, and
         attaching the triangles as shared buffers takes microseconds where embreex's copying
         constructor would hold the GIL for its whole copy) while the caller prepares the rest.
@@ -36,7 +46,7 @@ class LazyOccluder:
             pass
 
     @property
-    def built(self):
+    def built(self) -> bool:
         return self._real is not None
 
     def _build(self):
@@ -47,6 +57,6 @@ class LazyOccluder:
                 self._parts = None
         return self._real
 
-    def occluded(self, origins, directions):
+    def occluded(self, origins: npt.ArrayLike, directions: npt.ArrayLike) -> np.ndarray:
         real = self._real if self._real is not None else self._build()
         return real.occluded(origins, directions)

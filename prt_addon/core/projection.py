@@ -27,9 +27,12 @@ Pixel policy: NaN and +-Inf pixels are set to 0 and negative values are clamped 
 channel; every replaced value is counted in the returned PixelReport, never propagated silently.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from .sh import check_order, legendre_columns, sh_index
 
@@ -48,10 +51,10 @@ class PixelReport:
     negative: int = 0
 
     @property
-    def repaired(self):
+    def repaired(self) -> int:
         return self.nan + self.inf + self.negative
 
-    def summary(self):
+    def summary(self) -> str:
         if not self.repaired:
             return "all pixels finite and non-negative"
         return (
@@ -60,25 +63,25 @@ class PixelReport:
         )
 
 
-def row_elevations(height):
+def row_elevations(height: int) -> tuple[np.ndarray, np.ndarray]:
     """Elevation of each row's centre and edges (row 0 at the bottom), float64."""
     edges = (np.arange(height + 1, dtype=np.float64) / height - 0.5) * np.pi
     centres = ((np.arange(height, dtype=np.float64) + 0.5) / height - 0.5) * np.pi
     return centres, edges
 
 
-def column_azimuths(width):
+def column_azimuths(width: int) -> np.ndarray:
     """phi = atan2(y, x) at each column's centre: pi at u = 0, 0 at the centre, -pi at u = 1."""
     return np.pi - 2.0 * np.pi * (np.arange(width, dtype=np.float64) + 0.5) / width
 
 
-def pixel_solid_angles(height, width):
+def pixel_solid_angles(height: int, width: int) -> np.ndarray:
     """(H,) solid angle of one pixel of each row; W * sum() == 4 pi to rounding."""
     _, edges = row_elevations(height)
     return (2.0 * np.pi / width) * np.diff(np.sin(edges))
 
 
-def pixel_directions(height, width):
+def pixel_directions(height: int, width: int) -> np.ndarray:
     """(H, W, 3) unit direction at every pixel centre, rows bottom to top like Image.pixels."""
     elevation, _ = row_elevations(height)
     phi = column_azimuths(width)
@@ -91,7 +94,7 @@ def pixel_directions(height, width):
     )
 
 
-def as_rgb_image(pixels):
+def as_rgb_image(pixels: npt.ArrayLike) -> np.ndarray:
     """(H, W, C) -> (H, W, 3) view: grey channels are repeated, alpha and extra channels dropped."""
     pixels = np.asarray(pixels)
     if pixels.ndim == 2:
@@ -103,7 +106,7 @@ def as_rgb_image(pixels):
     return pixels[:, :, :3]
 
 
-def sanitize(block, report):
+def sanitize(block: np.ndarray, report: PixelReport) -> np.ndarray:
     """float64 copy of an RGB block with NaN/Inf set to 0 and negatives clamped, counted in report."""
     block = block.astype(np.float64)
     nan = np.isnan(block)
@@ -117,7 +120,7 @@ def sanitize(block, report):
     return block
 
 
-def row_integration_nodes(height, order):
+def row_integration_nodes(height: int, order: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """Gauss-Legendre nodes in elevation inside every row: (z, sin_theta, weight), each (H*q,).
 
     weight includes the Jacobian cos(e) de, so sum(weight * f(z)) = integral of f dz over the row.
@@ -134,7 +137,7 @@ def row_integration_nodes(height, order):
     return np.sin(elevation), np.cos(elevation), weight, q
 
 
-def project_equirect(pixels, order):
+def project_equirect(pixels: npt.ArrayLike, order: int) -> tuple[np.ndarray, PixelReport]:
     """Project an (H, W, C) equirectangular image (row 0 = bottom) -> ((order**2, 3), PixelReport)."""
     order = check_order(order)
     rgb = as_rgb_image(pixels)
@@ -174,7 +177,7 @@ def project_equirect(pixels, order):
     return coeffs, report
 
 
-def synthesize_equirect(coeffs, height, width):
+def synthesize_equirect(coeffs: npt.ArrayLike, height: int, width: int) -> np.ndarray:
     """(H, W, C) image of an expansion evaluated at the pixel centres (row 0 = bottom)."""
     from .sh import evaluate
 

@@ -22,8 +22,11 @@ Culling (no rays where nothing can occlude), used by prt_addon.core.transfer:
   (c - x) . n + h . |n| > 0, with c the centre and h the half extents.
 """
 
+from __future__ import annotations
+
 
 import numpy as np
+import numpy.typing as npt
 
 from . import embree_buffers
 from .serial_blas import matmul_serial
@@ -40,7 +43,7 @@ except (ImportError, OSError) as exc:  # pragma: no cover - depends on the platf
     EMBREE_IMPORT_ERROR = f"{type(exc).__name__}: {exc}"
 
 
-def as_triangles(vertices, triangles):
+def as_triangles(vertices: npt.ArrayLike, triangles: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """(V, 3) float32 C-contiguous vertices and (T, 3) int32 triangles, validated."""
     v = np.ascontiguousarray(vertices, dtype=np.float32).reshape(-1, 3)
     t = np.ascontiguousarray(triangles, dtype=np.int32).reshape(-1, 3)
@@ -64,7 +67,8 @@ class EmbreeOccluder:
     name = "EMBREE"
     max_threads = 16
 
-    def __init__(self, vertices, triangles, robust=False, shared=True):
+    def __init__(self, vertices: npt.ArrayLike, triangles: npt.ArrayLike, robust: bool = False,
+                 shared: bool = True) -> None:
         if not EMBREE_AVAILABLE:
             raise RuntimeError(f"embreex is not available ({EMBREE_IMPORT_ERROR})")
         v, t = as_triangles(vertices, triangles)
@@ -83,7 +87,7 @@ class EmbreeOccluder:
             self._mesh = _embree_mesh.TriangleMesh(self._scene, v, t)
         self._scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32), query="OCCLUDED")
 
-    def occluded(self, origins, directions):
+    def occluded(self, origins: npt.ArrayLike, directions: npt.ArrayLike) -> np.ndarray:
         # run() reads strided (N, 3) float32 views as fast as contiguous arrays (measured): the
         # bake passes views of 16-byte rows, which must not be copied here.
         o = np.asarray(origins, dtype=np.float32)
@@ -94,7 +98,7 @@ class EmbreeOccluder:
         return self._scene.run(o, d, query="OCCLUDED") == 0
 
 
-def bounding_box(vertices):
+def bounding_box(vertices: npt.ArrayLike) -> np.ndarray:
     """(2, 3) float64 [min, max] of (V, 3) points."""
     v = np.asarray(vertices).reshape(-1, 3)
     # Column by column: numpy reduces an (n, 3) array along axis 0 about 20 times slower.
@@ -102,7 +106,7 @@ def bounding_box(vertices):
                     dtype=np.float64)
 
 
-def box_can_occlude(points, normals, boxes):
+def box_can_occlude(points: npt.ArrayLike, normals: npt.ArrayLike, boxes: npt.ArrayLike) -> np.ndarray:
     """(P,) bool: does any of the (K, 2, 3) boxes reach above the tangent plane of each point."""
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 2, 3)
     if len(boxes) == 0:
@@ -127,7 +131,7 @@ def _used_vertices(t, count):
     return np.flatnonzero(mask)
 
 
-def is_planar(vertices, triangles, rel_tol=1e-6):
+def is_planar(vertices: npt.ArrayLike, triangles: npt.ArrayLike, rel_tol: float = 1e-6) -> bool:
     """True when every vertex of the triangles lies within rel_tol * (bounding-box diagonal) of
     their least-squares plane, whose normal is the eigenvector of the smallest eigenvalue of the
     vertices' scatter matrix (a 3 x 3 problem: no per-triangle work)."""
@@ -146,7 +150,7 @@ def is_planar(vertices, triangles, rel_tol=1e-6):
     return bool(np.abs(matmul_serial(centred, normal)).max() <= rel_tol * scale)
 
 
-def is_closed_convex(vertices, triangles, rel_tol=1e-6):
+def is_closed_convex(vertices: npt.ArrayLike, triangles: npt.ArrayLike, rel_tol: float = 1e-6) -> bool:
     """True when the triangles form one closed, consistently oriented, convex surface.
 
     Checks: every edge is shared by exactly two triangles with opposite orientations; every edge
@@ -204,6 +208,6 @@ def is_closed_convex(vertices, triangles, rel_tol=1e-6):
     return bool(np.all(angle_sum <= 2.0 * np.pi + 1e-6))
 
 
-def cannot_self_occlude(vertices, triangles):
+def cannot_self_occlude(vertices: npt.ArrayLike, triangles: npt.ArrayLike) -> bool:
     """True when no ray above a surface point's tangent plane can hit this same mesh."""
     return is_planar(vertices, triangles) or is_closed_convex(vertices, triangles)

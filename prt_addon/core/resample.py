@@ -16,7 +16,10 @@ clamped to 0 before averaging (counted in a projection.PixelReport, as project_e
 so one bad pixel cannot poison a reduced pixel.
 """
 
+from __future__ import annotations
+
 import numpy as np
+import numpy.typing as npt
 
 from .projection import PixelReport, as_rgb_image, row_elevations, sanitize
 
@@ -24,7 +27,7 @@ ROW_BLOCK = 64
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec.709 / scene-linear luminance weights
 
 
-def needed_height(order):
+def needed_height(order: int) -> int:
     """Rows an order-n projection needs: at least 256, and 16 per band (measured in docs/world.md).
 
     A reduced pixel moves a sun by up to half its size, so the error depends on the pixel size far
@@ -33,7 +36,7 @@ def needed_height(order):
     return max(256, 16 * int(order))
 
 
-def target_size(height, width, order):
+def target_size(height: int, width: int, order: int) -> tuple[int, int]:
     """(H_out, W_out): at most needed_height(order) rows and 4 times as many columns, never more
     than the source; the aspect ratio is kept when rows are reduced."""
     need = needed_height(order)
@@ -49,7 +52,7 @@ def _interval_overlaps(src_edges, dst_edges):
     return np.clip(hi - lo, 0.0, None)
 
 
-def reduce_columns(block, width_out):
+def reduce_columns(block: np.ndarray, width_out: int) -> np.ndarray:
     """Average (b, W, C) over W_out equal azimuth intervals (fractional overlaps included).
 
     Every column spans the same azimuth, so the exact mean over an interval [a, b] (in columns)
@@ -67,7 +70,7 @@ def reduce_columns(block, width_out):
     return np.diff(integral, axis=1) / (width / width_out)
 
 
-def row_matrix(height, height_out):
+def row_matrix(height: int, height_out: int) -> np.ndarray:
     """(H_out, H) weights: overlap of the rows in z = sin(elevation), i.e. in solid angle."""
     _, src_e = row_elevations(height)
     _, dst_e = row_elevations(height_out)
@@ -77,7 +80,9 @@ def row_matrix(height, height_out):
     return a / a.sum(axis=1, keepdims=True)
 
 
-def reduce_equirect(pixels, height_out, width_out):
+def reduce_equirect(
+    pixels: npt.ArrayLike, height_out: int, width_out: int
+) -> tuple[np.ndarray, PixelReport, float]:
     """Reduce an (H, W, C) equirect image (row 0 at the bottom) to (H_out, W_out, 3) float64.
 
     Returns (reduced, report, energy): report counts the repaired source values, energy is the
@@ -106,7 +111,7 @@ def reduce_equirect(pixels, height_out, width_out):
     return out, report, energy
 
 
-def image_energy(rgb):
+def image_energy(rgb: npt.ArrayLike) -> float:
     """L2 energy integral of luminance^2 dOmega of a repaired (H, W, 3) equirect image."""
     height, width, _ = rgb.shape
     solid = (2.0 * np.pi / width) * np.diff(np.sin(row_elevations(height)[1]))
@@ -114,7 +119,7 @@ def image_energy(rgb):
     return float(solid @ np.einsum("ij,ij->i", lum, lum))
 
 
-def truncation_fraction(coeffs, energy):
+def truncation_fraction(coeffs: npt.ArrayLike, energy: float) -> float:
     """Fraction of the L2 luminance energy not captured by the coefficients (Parseval), in [0, 1]."""
     if energy <= 0.0:
         return 0.0
@@ -127,7 +132,7 @@ def truncation_fraction(coeffs, energy):
 DIFFUSE_REFERENCE_ORDER = 32
 
 
-def diffuse_truncation_fraction(reference_coeffs, order):
+def diffuse_truncation_fraction(reference_coeffs: npt.ArrayLike, order: int) -> float:
     """Fraction of the L2 luminance energy of the diffuse shading E/pi (the lighting convolved with
     max(0, cos)/pi, Funk-Hecke) that lies beyond `order`, from coefficients of a higher order."""
     from .analytic import clamped_cosine_zonal

@@ -17,9 +17,12 @@ Rotation about Z has a closed form (fast path, `z_rotation_matrix`): in band l, 
 (y_{l,-m}, y_{l,m}) turns by the angle m * alpha.
 """
 
+from __future__ import annotations
+
 import functools
 
 import numpy as np
+import numpy.typing as npt
 
 from .sh import check_order
 
@@ -35,7 +38,7 @@ def _as_rotation(rotation):
     return r
 
 
-def band_matrices(rotation, order):
+def band_matrices(rotation: npt.ArrayLike, order: int) -> list[np.ndarray]:
     """List of per-band rotation blocks [(1x1), (3x3), ..., (2n-1 x 2n-1)], indices m = -l..l."""
     order = check_order(order)
     r = _as_rotation(rotation)
@@ -124,7 +127,7 @@ def _next_band(r1, prev, l):
     return np.einsum("tij,tij,tij->ij", coef, r1.ravel()[r1_index], prev.ravel()[prev_index])
 
 
-def block_diagonal(blocks):
+def block_diagonal(blocks: list[np.ndarray]) -> np.ndarray:
     order = len(blocks)
     out = np.zeros((order * order, order * order))
     for l, block in enumerate(blocks):
@@ -133,12 +136,12 @@ def block_diagonal(blocks):
     return out
 
 
-def rotation_matrix(rotation, order):
+def rotation_matrix(rotation: npt.ArrayLike, order: int) -> np.ndarray:
     """(order**2, order**2) matrix M such that M @ c are the coefficients of f(R^-1 w)."""
     return block_diagonal(band_matrices(rotation, order))
 
 
-def rotate(coeffs, rotation):
+def rotate(coeffs: npt.ArrayLike, rotation: npt.ArrayLike) -> np.ndarray:
     """Coefficients of f(R^-1 w) for coeffs (n*n,) or (n*n, C), applying the blocks band by band."""
     from .sh import order_of
 
@@ -160,7 +163,7 @@ def _degree_pairs(order):
     return m, l * (l + 1) - m
 
 
-def z_rotation_matrix(angle, order):
+def z_rotation_matrix(angle: float, order: int) -> np.ndarray:
     """Closed form of rotation_matrix(Rz(angle), order): per band, (y_{l,-m}, y_{l,m}) turn by m*angle.
 
     Rotating f by alpha about Z shifts its phi dependence: cos(m (phi - alpha)) and
@@ -175,7 +178,7 @@ def z_rotation_matrix(angle, order):
     return out
 
 
-def rotate_z(coeffs, angle):
+def rotate_z(coeffs: npt.ArrayLike, angle: float) -> np.ndarray:
     """rotate(coeffs, Rz(angle)) without forming a matrix: O(n*n) instead of O(n^3)."""
     from .sh import order_of
 
@@ -188,7 +191,7 @@ def rotate_z(coeffs, angle):
     return c * coeffs + s * coeffs[partner]
 
 
-def axis_angle_matrix(axis, angle):
+def axis_angle_matrix(axis: npt.ArrayLike, angle: float) -> np.ndarray:
     """3x3 rotation by `angle` (radians, right-handed) about `axis` (Rodrigues' formula)."""
     a = np.asarray(axis, dtype=np.float64)
     a = a / np.linalg.norm(a)
@@ -196,7 +199,7 @@ def axis_angle_matrix(axis, angle):
     return np.eye(3) + np.sin(angle) * k + (1.0 - np.cos(angle)) * (k @ k)
 
 
-def euler_xyz_matrix(angles):
+def euler_xyz_matrix(angles: npt.ArrayLike) -> np.ndarray:
     """3x3 matrix of Blender's 'XYZ' Euler rotation (applied X first, then Y, then Z): Rz Ry Rx."""
     x, y, z = (float(a) for a in angles)
     return (

@@ -9,13 +9,17 @@ numpy work use two cores. Products on the bake's path (set-up and slices) theref
 matmul_serial, split by rows below that size.
 """
 
+from __future__ import annotations
+
 import numpy as np
+import numpy.typing as npt
 
 BLAS_SERIAL_MNK = 1 << 18  # gemm: threaded above m * n * k = 2^18
 BLAS_SERIAL_GEMV = 9216  # gemv: threaded from m * n = 9216
 
 
-def matmul_serial(a, b, out=None, accumulate=False):
+def matmul_serial(a: npt.ArrayLike, b: npt.ArrayLike, out: np.ndarray | None = None,
+                  accumulate: bool = False) -> np.ndarray:
     """a @ b (or out += a @ b) for 2-D a and 2-D or 1-D b, in blocks small enough for a serial
     BLAS call. Returns out (for a 1-D b, a 1-D view of it)."""
     a = np.asarray(a)

@@ -24,33 +24,38 @@ and sin^m(theta) (cos m phi, sin m phi) = (Re, Im) of (x + i y)^m, a polynomial 
 Both factors are polynomials, so the basis is exact at the poles and needs no atan2.
 """
 
+from __future__ import annotations
+
+from collections.abc import Iterator
+
 import numpy as np
+import numpy.typing as npt
 
 FOUR_PI = 4.0 * np.pi
 
 
-def num_coeffs(order):
+def num_coeffs(order: int) -> int:
     """Number of coefficients of an order-n expansion (bands 0..n-1)."""
     return order * order
 
 
-def sh_index(l, m):
+def sh_index(l: int, m: int) -> int:
     """Flat coefficient index of band l, degree m (|m| <= l)."""
     return l * (l + 1) + m
 
 
-def band_of_index(order):
+def band_of_index(order: int) -> np.ndarray:
     """(order**2,) array: the band l of each coefficient index."""
     return np.repeat(np.arange(order), 2 * np.arange(order) + 1)
 
 
-def check_order(order):
+def check_order(order: int) -> int:
     if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or order < 1:
         raise ValueError(f"SH order must be an integer >= 1 (got {order!r})")
     return int(order)
 
 
-def normalize_directions(directions):
+def normalize_directions(directions: npt.ArrayLike) -> np.ndarray:
     """(N, 3) float64 unit vectors; raises ValueError on zero-length or non-finite input."""
     d = np.asarray(directions, dtype=np.float64)
     if d.ndim != 2 or d.shape[1] != 3:
@@ -67,7 +72,7 @@ def normalize_directions(directions):
     return d / np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
 
 
-def legendre_columns(z, order):
+def legendre_columns(z: npt.ArrayLike, order: int) -> Iterator[tuple[int, int, np.ndarray]]:
     """Yield (l, m, Q_l^m(z)) for 0 <= m <= l < order, m-major, Q as defined in the module doc.
 
     z is a float64 array of cos(theta); the yielded arrays are fresh (safe to keep).
@@ -91,7 +96,7 @@ def legendre_columns(z, order):
             q_prev2, q_prev1 = q_prev1, q_l
 
 
-def azimuthal_powers(x, y, order):
+def azimuthal_powers(x: npt.ArrayLike, y: npt.ArrayLike, order: int) -> tuple[np.ndarray, np.ndarray]:
     """(cos_part, sin_part), each (order, N): Re and Im of (x + i y)^m for m = 0..order-1."""
     x = np.asarray(x, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
@@ -105,7 +110,7 @@ def azimuthal_powers(x, y, order):
     return c, s
 
 
-def sh_basis(directions, order):
+def sh_basis(directions: npt.ArrayLike, order: int) -> np.ndarray:
     """Real SH basis at unit directions: (N, order**2) float64.
 
     Directions are normalised first; zero-length or non-finite ones raise ValueError.
@@ -132,7 +137,7 @@ def sh_basis(directions, order):
 EVALUATE_CHUNK = 32768
 
 
-def evaluate(coeffs, directions):
+def evaluate(coeffs: npt.ArrayLike, directions: npt.ArrayLike) -> np.ndarray:
     """Evaluate an expansion at directions. coeffs (n*n,) or (n*n, C) -> (N,) or (N, C)."""
     coeffs = np.asarray(coeffs, dtype=np.float64)
     order = order_of(coeffs.shape[0])
@@ -144,7 +149,7 @@ def evaluate(coeffs, directions):
     return out
 
 
-def convolve_zonal(coeffs, zonal):
+def convolve_zonal(coeffs: npt.ArrayLike, zonal: npt.ArrayLike) -> np.ndarray:
     """Coefficients of the convolution of f with a zonal kernel h (Funk-Hecke theorem).
 
     (f * h)(n) = integral f(w) h(n . w) dw has coefficients sqrt(4 pi / (2l+1)) z_l c_lm, where
@@ -158,7 +163,7 @@ def convolve_zonal(coeffs, zonal):
     return coeffs * (scale if coeffs.ndim == 1 else scale[:, None])
 
 
-def order_of(num):
+def order_of(num: int) -> int:
     """The order n whose n*n equals num; ValueError if num is not a perfect square."""
     n = int(round(np.sqrt(num)))
     if n < 1 or n * n != num:
@@ -166,7 +171,7 @@ def order_of(num):
     return n
 
 
-def zonal_to_coeffs(zonal, axis):
+def zonal_to_coeffs(zonal: npt.ArrayLike, axis: npt.ArrayLike) -> np.ndarray:
     """Coefficients of a function symmetric about `axis` with zonal coefficients z_l.
 
     Rotating a zonal function (Sloan 2008, eq. 14): c_lm = sqrt(4 pi / (2l+1)) z_l y_lm(axis).

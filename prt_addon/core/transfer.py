@@ -45,13 +45,18 @@ them); Embree and numpy release the GIL, so two threads use both cores. Slices a
 the one step() collects, so no worker waits for another at chunk boundaries.
 """
 
+from __future__ import annotations
+
 import threading
 import time
 from collections import deque
+from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from concurrent.futures import wait as futures_wait
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from .directions import DirectionSet
 from .sh import check_order
@@ -111,9 +116,12 @@ class TransferComputation:
     in its plane (docs/bake.md, "Contacts").
     """
 
-    def __init__(self, positions, normals, directions, order, occluder=None, offset=0.0,
-                 self_occludes=True, other_boxes=None, chunk_rays=CHUNK_RAYS, threads=2,
-                 pool=None, surface=None, point_vertex=None):
+    def __init__(self, positions: npt.ArrayLike, normals: npt.ArrayLike, directions: DirectionSet, order: int,
+                 occluder: Any = None, offset: npt.ArrayLike = 0.0,
+                 self_occludes: npt.ArrayLike = True, other_boxes: npt.ArrayLike | None = None,
+                 chunk_rays: int = CHUNK_RAYS, threads: int = 2, pool: ThreadPoolExecutor | None = None,
+                 surface: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
+                 point_vertex: npt.ArrayLike | None = None) -> None:
         if not isinstance(directions, DirectionSet):
             raise TypeError("directions must be a DirectionSet (core.directions.make_directions)")
         self.order = check_order(order)
@@ -167,17 +175,17 @@ class TransferComputation:
         self._started = None
 
     @property
-    def total(self):
+    def total(self) -> int:
         return len(self.positions)
 
     @property
-    def fraction(self):
+    def fraction(self) -> float:
         return self.done / self.total if self.total else 1.0
 
-    def cancel(self):
+    def cancel(self) -> None:
         self._cancel = True
 
-    def close(self):
+    def close(self) -> None:
         for _a, _b, future in self._pending:
             future.cancel()
         futures_wait([f for _a, _b, f in self._pending])
@@ -252,7 +260,7 @@ class TransferComputation:
             tiled = self._tiles[key] = np.tile(self.dirs16[k0:k1], self.points_per_slice)
         return tiled
 
-    def iter_rays(self):
+    def iter_rays(self) -> Iterator[tuple[np.ndarray, np.ndarray]]:
         """Every (origins, directions) batch the bake traces, in the same order (benchmarks),
         as contiguous (n, 3) float32 arrays."""
         for lo in range(0, self.total, self.points_per_slice):
@@ -324,7 +332,7 @@ class TransferComputation:
             self._pending.append((a, b, self._pool.submit(self._slice, a, b)))
             self._next = b
 
-    def start(self):
+    def start(self) -> None:
         """Queue the first slices now (threads > 1), so that they run while the caller does
         other work; step() collects them. The wall time (stats.seconds) starts here."""
         if self._started is None:
@@ -332,7 +340,7 @@ class TransferComputation:
         if self.threads > 1 and self.done < self.total and not self._cancel:
             self._submit()
 
-    def step(self):
+    def step(self) -> bool:
         """Process one chunk; returns False when every point is done."""
         if self._cancel:
             raise Cancelled()
@@ -360,10 +368,10 @@ class TransferComputation:
         self.stats.seconds = time.perf_counter() - self._started
         return self.done < self.total
 
-    def result(self):
+    def result(self) -> TransferResult:
         return TransferResult(self.coeffs, self.error, self.stats)
 
-    def run(self, progress=None):
+    def run(self, progress: Callable[[float], object] | None = None) -> TransferResult:
         """Compute everything; progress(fraction) is called after each chunk."""
         try:
             while self.step():
@@ -374,7 +382,8 @@ class TransferComputation:
         return self.result()
 
 
-def compute_transfer(positions, normals, directions, order, occluder=None, **kwargs):
+def compute_transfer(positions: npt.ArrayLike, normals: npt.ArrayLike, directions: DirectionSet, order: int,
+                     occluder: Any = None, **kwargs: Any) -> TransferResult:
     """(P, n*n) float32 transfer vectors, per-point error estimates and stats (TransferResult)."""
     return TransferComputation(positions, normals, directions, order, occluder, **kwargs).run()
 

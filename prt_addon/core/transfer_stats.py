@@ -1,6 +1,8 @@
 """What a transfer computation counts (rays traced and skipped, and why), what it returns, and
 how its error estimate is grouped and calibrated (core.transfer explains the estimate)."""
 
+from __future__ import annotations
+
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -19,10 +21,10 @@ class TransferStats:
     trace_seconds: float = 0.0  # summed over threads
 
     @property
-    def rays_skipped(self):
+    def rays_skipped(self) -> int:
         return self.skipped_below_horizon + self.skipped_unoccludable + self.skipped_shadows_off
 
-    def add(self, other):
+    def add(self, other: TransferStats) -> TransferStats:
         for name in (
             "points", "candidate_rays", "rays_traced", "skipped_below_horizon",
             "skipped_unoccludable", "skipped_shadows_off", "occluded_rays", "seconds",
@@ -31,7 +33,7 @@ class TransferStats:
             setattr(self, name, getattr(self, name) + getattr(other, name))
         return self
 
-    def as_dict(self):
+    def as_dict(self) -> dict[str, int | float]:
         return {
             "points": self.points,
             "rays_traced": self.rays_traced,
@@ -50,14 +52,14 @@ class TransferResult:
     error: np.ndarray  # (P,) float32: per-point standard-error estimate (L2 over coefficients)
     stats: TransferStats = field(default_factory=TransferStats)
 
-    def error_rms(self):
+    def error_rms(self) -> float:
         return float(np.sqrt(np.mean(np.square(self.error, dtype=np.float64)))) if len(self.error) else 0.0
 
-    def square_norm_sum(self):
+    def square_norm_sum(self) -> float:
         """sum over points of |t|^2, accumulated in float64."""
         return float(np.einsum("ij,ij->", self.coeffs, self.coeffs, dtype=np.float64))
 
-    def error_relative(self):
+    def error_relative(self) -> float:
         """RMS error estimate over RMS transfer norm (dimensionless)."""
         if not len(self.error):
             return 0.0
@@ -65,13 +67,13 @@ class TransferResult:
         return self.error_rms() / norm if norm > 0 else 0.0
 
 
-def error_groups(kind):
+def error_groups(kind: str) -> int:
     """K, the number of interleaved groups of the batch-means error estimate (module docstring):
     8 for i.i.d. directions (UNIFORM), 2 (halves) for the Fibonacci and stratified sets."""
     return 8 if str(kind).upper() == "UNIFORM" else 2
 
 
-def error_calibration(kind, count, order):
+def error_calibration(kind: str, count: int, order: int) -> float:
     """Factor applied to the batch-means estimate (module docstring; for the Fibonacci set,
     which uses two halves, that is |t_A - t_B| / 2) (docs/accuracy.md).
 
