@@ -211,8 +211,9 @@ def scene_view_layer(scene):
     return bpy.context.view_layer if scene == bpy.context.scene else scene.view_layers[0]
 
 
-def update_shadow_maps(scene, lights, depsgraph=None, view_layer=None, resolution=RESOLUTION):
+def update_shadow_maps(scene, lights, depsgraph=None, view_layer=None, resolution=None):
     """The scene's ShadowMap per light (list, same order), drawn again only where needed."""
+    resolution = resolution or RESOLUTION
     state = _states.setdefault(scene.as_pointer(), ShadowState())
     objects = caster_objects(scene, view_layer or scene_view_layer(scene))
     key = geometry_signature(objects, depsgraph)
@@ -222,6 +223,7 @@ def update_shadow_maps(scene, lights, depsgraph=None, view_layer=None, resolutio
         state.box = (positions.min(axis=0).astype(np.float64), positions.max(axis=0).astype(np.float64)) \
             if len(positions) else None
         state.geometry_key = key
+    state.maps = [m for m in state.maps if m.resolution == resolution]
     while len(state.maps) < len(lights):
         state.maps.append(ShadowMap(resolution))
     del state.maps[len(lights):]
