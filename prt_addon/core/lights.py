@@ -14,15 +14,14 @@ rotation R (direction in world = R @ direction in image frame) use `rotate_light
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from .projection import as_rgb_image, column_azimuths, row_elevations
-from .serial_blas import matmul_serial
+from .light_visibility import disc_directions, light_irradiance, light_visibility  # noqa: F401 (the lights' shading)
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 MAX_LIGHTS = 8
@@ -30,7 +29,6 @@ MEAN_FACTOR = 8.0  # threshold rule: see auto_threshold
 COMPACT_FRACTION = 0.01
 MIN_SHARE = 0.005  # regions with less of the world's luminance power stay in the residual
 FLOATS_PER_LIGHT = 7  # direction 3, power 3, angle 1
-CHUNK_RAYS = 1 << 16  # rays per occluder call in light_visibility (a few MB)
 LUMINANCE_ROWS = 16  # rows converted to float64 at a time (stays in cache: measured fastest)
 
 
@@ -299,108 +297,3 @@ def rotate_lights(lights: Iterable[Light], rotation: npt.ArrayLike) -> list[Ligh
     return [Light(direction=rotation @ light.direction, power=light.power.copy(),
                   angle=light.angle, solid_angle=light.solid_angle, texels=light.texels)
             for light in lights]
-
-
-def disc_directions(direction: npt.ArrayLike, angle: float, count: int) -> np.ndarray:
-    """(count, 3) unit directions over the cap of half-angle `angle` about `direction`.
-
-    Stratified in solid angle: `count` equal-area rings, the innermost one's sample at the centre
-    when count is odd, then pairs of opposite points at the mid-area polar angle of each pair of
-    rings, turning by the golden angle. The mean is along `direction`; count = 1 is the centre.
-    """
-    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
-        raise ValueError(f"count must be an integer >= 1, got {count!r}")
-    centre = np.asarray(direction, dtype=np.float64).reshape(3)
-    centre = centre / np.linalg.norm(centre)
-    # Orthonormal tangents (Duff et al. 2017, "Building an orthonormal basis, revisited").
-    x, y, z = centre
-    sign = 1.0 if z >= 0.0 else -1.0
-    a, b = -1.0 / (sign + z), -x * y / (sign + z)
-    tangent = np.array([1.0 + sign * x * x * a, sign * b, -sign * x])
-    bitangent = np.array([b, sign + y * y * a, -y])
-    odd = count % 2
-    pairs = np.arange(count // 2)
-    # Ring k covers the area fractions [(odd + 2k) / count, (odd + 2k + 2) / count] of the cap.
-    fraction = (odd + 2.0 * pairs + 1.0) / count
-    one_minus_cos = fraction * (1.0 - np.cos(angle))
-    sin_theta = np.sqrt(np.maximum(0.0, one_minus_cos * (2.0 - one_minus_cos)))
-    cos_theta = 1.0 - one_minus_cos
-    turn = pairs * np.pi * (3.0 - np.sqrt(5.0))
-    offsets = [np.cos(turn)[:, None] * tangent + np.sin(turn)[:, None] * bitangent]
-    offsets.append(-offsets[0])
-    points = [cos_theta[:, None] * centre + sin_theta[:, None] * o for o in offsets]
-    if odd:
-        points.insert(0, centre[None, :])
-    return np.concatenate(points)
-
-
-def _unit_rows(vectors):
-    v = np.asarray(vectors, dtype=np.float64).reshape(-1, 3)
-    length = np.sqrt(np.einsum("ij,ij->i", v, v))
-    ok = np.isfinite(length) & (length > 1e-12)
-    return np.divide(v, length[:, None], out=np.zeros_like(v), where=ok[:, None])
-
-
-def light_irradiance(normals: npt.ArrayLike, lights: Sequence[Light],
-                     visibility: npt.ArrayLike | None = None) -> np.ndarray:
-    """(P, 3) radiance shown under the lights: sum_l power_l / pi * max(0, n . s_l) * V[:, l].
-
-    That is E / pi, the unit of the SH shading sum_i L_i t_i (transfer max(0, n . w) / pi * V).
-    visibility: (P, L) fractions in [0, 1], or None for 1. Zero normals give 0.
-    """
-    normals = _unit_rows(normals)
-    if not lights:
-        return np.zeros((len(normals), 3))
-    directions = np.stack([light.direction for light in lights])
-    powers = np.stack([light.power for light in lights])
-    weight = np.maximum(0.0, matmul_serial(normals, directions.T)) / np.pi
-    if visibility is not None:
-        visibility = np.asarray(visibility, dtype=np.float64)
-        if visibility.shape != weight.shape:
-            raise ValueError(f"visibility must have shape {weight.shape}, got {visibility.shape}")
-        weight = weight * visibility
-    return matmul_serial(weight, powers)
-
-
-def light_visibility(points: npt.ArrayLike, normals: npt.ArrayLike, lights: Sequence[Light], occluder: Any,
-                     rays_per_light: int = 16, offset: npt.ArrayLike | None = None) -> np.ndarray:
-    """(P, L) fraction of each light's disc seen from each point, by rays to disc_directions.
-
-    occluder follows the core.raytrace protocol: occluded(origins f32 (N, 3), dirs f32 (N, 3))
-    -> bool (N,). Ray origins are point + offset * unit normal, offset scalar or (P,) as in the
-    transfer bake; None: the bake's rule max(1e-4 * bounding-box diagonal, 1e-5 * largest
-    |coordinate|) over the points. Disc rays at or below the tangent plane count as blocked (the
-    surface hides them) and are not traced; points with the light's centre below the horizon get
-    0 (their irradiance is 0 anyway). A light of angle 0 gets one ray.
-    """
-    if isinstance(rays_per_light, bool) or not isinstance(rays_per_light, (int, np.integer)) \
-            or rays_per_light < 1:
-        raise ValueError(f"rays_per_light must be an integer >= 1, got {rays_per_light!r}")
-    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    normals = _unit_rows(normals)
-    if len(points) != len(normals):
-        raise ValueError("points and normals must have the same length")
-    if offset is None:
-        extent = np.ptp(points, axis=0) if len(points) else np.zeros(3)
-        biggest = float(np.abs(points).max()) if len(points) else 0.0
-        offset = max(1e-4 * float(np.linalg.norm(extent)), 1e-5 * biggest, 1e-30)
-    offset = np.broadcast_to(np.asarray(offset, dtype=np.float64), (len(points),))
-    origins = points + offset[:, None] * normals
-    visibility = np.zeros((len(points), len(lights)))
-    for index, light in enumerate(lights):
-        rays = disc_directions(light.direction, light.angle, 1 if light.angle == 0 else
-                               int(rays_per_light))
-        facing = np.flatnonzero(matmul_serial(normals, light.direction) > 0.0)
-        step = max(1, CHUNK_RAYS // len(rays))
-        for start in range(0, len(facing), step):
-            chosen = facing[start : start + step]
-            above = matmul_serial(normals[chosen], rays.T) > 0.0  # (n, k)
-            which, ray = np.nonzero(above)
-            free = np.zeros(above.shape)
-            if which.size:
-                blocked = np.asarray(occluder.occluded(
-                    origins[chosen][which].astype(np.float32),
-                    rays[ray].astype(np.float32)), dtype=bool)
-                free[which, ray] = ~blocked
-            visibility[chosen, index] = free.mean(axis=1)
-    return visibility
