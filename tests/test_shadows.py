@@ -217,3 +217,44 @@ def test_vertices_agree_with_traced_visibility(bpy_module, ground_scene):
     np.testing.assert_allclose(got, want, rtol=1e-4, atol=1e-5)
     # And the vertices at the edges are not all lit or all dark: the shadow is really there.
     assert ((vis > 0.0) & (vis < 1.0)).sum() + (~same).sum() > 10
+
+
+def test_viewport_callback_with_suns_matches_render_view(bpy_module, ground_scene, monkeypatch):
+    """The draw handler draws the shadow maps inside the viewport's frame (another framebuffer
+    bound, then the viewport's restored): the same image as render_view, drawn twice (cached)."""
+    import types
+
+    import gpu
+    import mathutils
+    from prt_addon.blender.display import draw as display_draw
+    from prt_addon.blender.display import offscreen, shadows
+
+    scene, _ground = ground_scene
+    set_suns(scene, [sun((0.3, -0.2, 1.0)), sun((-0.5, 0.1, 1.0), angle=0.05, power=(1.0, 1.0, 1.0))])
+    reference = render(scene)
+    shadows.clear_shadows()
+    view, proj = offscreen.camera_matrices(scene, SIZE, SIZE)
+    context = types.SimpleNamespace(
+        scene=scene,
+        region_data=types.SimpleNamespace(perspective_matrix=mathutils.Matrix((proj @ view).tolist())),
+        view_layer=bpy_module.context.view_layer,
+        space_data=None,
+        evaluated_depsgraph_get=bpy_module.context.evaluated_depsgraph_get,
+    )
+    monkeypatch.setattr(display_draw, "bpy", types.SimpleNamespace(context=context, types=bpy_module.types))
+    scene.view_settings.exposure = 0.0
+    off = gpu.types.GPUOffScreen(SIZE, SIZE, format="RGBA32F")
+    frames = []
+    with off.bind():
+        fb = gpu.state.active_framebuffer_get()
+        for _ in range(2):
+            fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
+            display_draw._draw_callback()
+            frames.append(np.asarray(fb.read_color(0, 0, SIZE, SIZE, 4, 0, "FLOAT")).T.reshape(SIZE, SIZE, 4)[::-1])
+    off.free()
+    mask = reference[..., 3] > 0
+    assert mask.sum() > 10000
+    for frame in frames:
+        np.testing.assert_allclose(frame[mask, :3], reference[mask, :3], rtol=1e-5, atol=1e-6)
+    dark = reference[mask, 0] < SKY[0] + 0.5 * POWER[0] / np.pi
+    assert 100 < dark.sum() < mask.sum() - 1000  # the shadows are in the picture
