@@ -36,19 +36,40 @@ def rotation_matrix(rotation, order):
     return _rotation.rotation_matrix(np.asarray(rotation, dtype=np.float64), order)
 
 
-def project_world(scene=None, order=None):
+def project_world(scene=None, order=None, split_lights=None, threshold=None, max_lights=None):
     """Project scene.world (default: the context scene) into SH, store it on the scene and
     return the world-space coefficients (order**2, 3). order=None uses scene.prt_world.order.
 
+    split_lights: True/False splits (or not) the world's compact bright sources off as disc
+    lights for this call (world_lights reads them), None uses scene.prt_world.split_lights;
+    threshold (luminance, 0: automatic) and max_lights (0 to 8) likewise override
+    light_threshold and max_lights for this call. The settings themselves are not changed.
+
     Raises ValueError (prt_addon.blender.world.nodes.WorldError) with a clear message when the world
-    cannot be projected; the stored lighting is then left unchanged.
+    cannot be projected or an argument is out of range; the stored lighting is then left unchanged.
     """
     import bpy
 
     from .blender.world import projection as _world
 
     scene = bpy.context.scene if scene is None else scene
-    return _world.project_and_store(scene, order).coeffs.copy()
+    result = _world.project_and_store(scene, order, split_lights=split_lights, threshold=threshold,
+                                      max_lights=max_lights)
+    return result.coeffs.copy()
+
+
+def world_lights(scene=None):
+    """The split lights of the scene in world space, with the Mapping rotation now: a list of
+    {"direction": (3,) unit array, "power": (3,) RGB array (irradiance on a surface facing the
+    light, Background strength included), "angle": disc radius in radians}, strongest first;
+    [] when the projection has none (split off, a colour world, no bright source)."""
+    import bpy
+
+    from .blender.display import lighting as _lighting
+
+    lights = _lighting.world_lights(bpy.context.scene if scene is None else scene)
+    return [{"direction": light.direction.copy(), "power": light.power.copy(), "angle": float(light.angle)}
+            for light in lights]
 
 
 def world_lighting(scene=None):
@@ -62,10 +83,12 @@ def world_lighting(scene=None):
 
 
 def shade(obj, scene=None):
-    """Per-element radiance (elements, 3) that the PRT display shader computes for a white
-    surface (albedo excluded): max(sum_i L_i t_i, 0) per channel with the scene's lighting
-    rotated into obj's local frame. One row per vertex for a POINT-domain bake (per face corner
-    for CORNER), the quantity Cycles' DIFFUSE bake with pass_filter={'DIRECT'} writes."""
+    """Per-element radiance (elements, 3) for a white surface (albedo excluded):
+    max(sum_i L_i t_i, 0) per channel with the scene's lighting rotated into obj's local frame,
+    plus for each split light power / pi * max(0, n . s) * V, V the fraction of its disc that
+    rays from the element see unoccluded by the scene's visible meshes. One row per vertex for a
+    POINT-domain bake (per face corner for CORNER), the quantity Cycles' DIFFUSE bake with
+    pass_filter={'DIRECT'} writes."""
     from .blender.display import lighting as _lighting
 
     return _lighting.shade(obj, scene)
@@ -118,6 +141,7 @@ def bake_status(obj, reason=False):
 
     state, why = _job.status(obj)
     return (state, why) if reason else state
+
 
 def export_gltf(path, objects=None, scene=None):
     """Write the baked objects (default: every baked mesh of the scene) and the scene's lighting

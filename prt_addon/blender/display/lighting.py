@@ -1,7 +1,7 @@
 """The light the display draws: the world's SH (or an override), rotated into each object's frame.
 
 `shade()` computes on the CPU the radiance the shader draws, from the same local-frame light and
-the same float32 transfer values, albedo excluded.
+the same float32 transfer values, albedo excluded, plus the split lights (light_shading).
 """
 
 import bpy
@@ -110,11 +110,15 @@ def object_light(obj, scene, order=None):
 
 
 def shade(obj, scene=None):
-    """Per-element radiance (elements, 3) float64 that the display shader computes for a white
-    surface: max(sum_i L_i t_i, 0) per channel, L in obj's local frame. One row per vertex for a
-    POINT bake, per face corner for a CORNER bake."""
+    """Per-element radiance (elements, 3) float64 for a white surface: max(sum_i L_i t_i, 0) per
+    channel, L in obj's local frame (what the display shader computes), plus each split light's
+    power / pi * max(0, n . s) * V with V traced against the scene's meshes
+    (light_shading.light_radiance). One row per vertex for a POINT bake, per face corner for a
+    CORNER bake."""
+    from .light_shading import light_radiance
+
     scene = scene if scene is not None else bpy.context.scene
-    bpy.context.evaluated_depsgraph_get()  # flush pending transform edits into matrix_world
+    depsgraph = bpy.context.evaluated_depsgraph_get()  # flushes pending edits into matrix_world
     mesh = obj.data
     info, problem = storage.usable_bake(mesh)
     if info is None or problem:  # not baked, or stale (topology changed since the bake)
@@ -124,7 +128,11 @@ def shade(obj, scene=None):
         raise ValueError("the scene has no PRT lighting (project the world first)")
     transfer = storage.read_transfer(mesh, info, padded=True).astype(np.float64)
     n2 = info.order * info.order
-    return np.maximum(transfer[:, :n2] @ light, 0.0)
+    radiance = np.maximum(transfer[:, :n2] @ light, 0.0)
+    lights = world_lights(scene)
+    if lights:
+        radiance += light_radiance(obj, depsgraph, lights, info)
+    return radiance
 
 
 def exposure_scale(scene):

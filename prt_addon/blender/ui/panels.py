@@ -4,7 +4,7 @@ import bpy
 
 from .. import storage
 from ..display import lighting, shader
-from ..world import nodes
+from ..world import light_split, nodes
 from .bake_panel import VIEW3D_PT_prt_bake, VIEW3D_PT_prt_bake_options, VIEW3D_PT_prt_bake_report
 from .sidebar import PRTSubPanel
 
@@ -29,10 +29,18 @@ class VIEW3D_PT_prt_world(PRTSubPanel, bpy.types.Panel):
         settings = context.scene.prt_world
         layout = self.layout
         layout.prop(settings, "order")
+        layout.prop(settings, "split_lights")
+        if settings.split_lights:
+            row = layout.row(align=True)
+            row.prop(settings, "light_threshold")
+            row.prop(settings, "max_lights")
         layout.operator("prt.project_world")
         if settings.stored_order < 1:
             layout.label(text="No world lighting stored")
             return
+        lines = layout.column(align=True)
+        for line in light_split.summary(settings):
+            lines.label(text=line)
         col = layout.column(align=True)
         col.label(text=f"Order {settings.stored_order} from {settings.source_kind.lower()}")
         if settings.image_name:

@@ -7,6 +7,7 @@ scene.prt_display.
 
 import bpy
 
+from ...core.lights import MAX_LIGHTS
 from ..bake.settings import MAX_ORDER, MIN_SAMPLES
 from ..world.projection import MAX_ORDER as MAX_WORLD_ORDER
 
@@ -56,6 +57,40 @@ class PRT_PG_world(bpy.types.PropertyGroup):
         name="Diffuse Truncation",
         description="Fraction of the L2 luminance energy of unshadowed diffuse shading beyond the stored order",
         subtype="FACTOR",
+    )
+    split_lights: bpy.props.BoolProperty(
+        name="Split Lights",
+        description="At the next projection, take the world's compact bright sources (a sun, lamps) out "
+                    "of the SH as disc lights with their own shadows; SH of any order cannot hold them",
+        default=True,
+    )
+    light_threshold: bpy.props.FloatProperty(
+        name="Threshold",
+        description="Luminance above which texels become lights (0: automatic, the larger of 8 times the "
+                    "image's mean luminance and the level that keeps the bright texels within 1 % of "
+                    "the sphere)",
+        default=0.0, min=0.0, soft_max=1000.0,
+    )
+    max_lights: bpy.props.IntProperty(
+        name="Max Lights",
+        description="At most this many lights, the most powerful bright regions; the others stay in the SH",
+        default=4, min=0, max=MAX_LIGHTS,
+    )
+    stored_split: bpy.props.BoolProperty(
+        name="Split Used", description="Whether the stored projection split lights off the world",
+    )
+    light_count: bpy.props.IntProperty(
+        name="Lights", description="Number of lights split off at the last projection", default=0,
+    )
+    light_share: bpy.props.FloatProperty(
+        name="Light Share",
+        description="Fraction of the world's power (luminance) held by the split lights",
+        subtype="FACTOR",
+    )
+    strongest_elevation: bpy.props.FloatProperty(
+        name="Strongest Elevation",
+        description="Elevation of the strongest light above the horizon (Mapping rotation of the projection)",
+        subtype="ANGLE",
     )
     message: bpy.props.StringProperty(name="Notes")
     token: bpy.props.StringProperty(name="Token", description="Changes at every projection")

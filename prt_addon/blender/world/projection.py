@@ -18,7 +18,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ...core import lights as core_lights
 from ...core import projection, resample, rotation, sh
+from . import light_split
 from .nodes import WorldError, WorldSource, _render_source, analyse_world, live_sh_rotation
 from .pixels import _NeedsRender, read_image_pixels, render_world
 
@@ -45,6 +47,9 @@ class WorldProjection:
     source_size: tuple = (0, 0)  # image (width, height) read or rendered
     projected_size: tuple = (0, 0)  # after reduction
     warnings: list = field(default_factory=list)
+    split: bool = False  # whether the light split ran (an IMAGE or RENDER source with it on)
+    lights: list = field(default_factory=list)  # core.lights.Light, image frame, strength applied
+    light_share: float = 0.0  # fraction of the world's luminance power in the lights
 
 
 def project_pixels(pixels, order):
@@ -59,12 +64,21 @@ def project_pixels(pixels, order):
     return reference[: order * order].copy(), report, energy, (w_out, h_out), diffuse_truncation
 
 
-def project(scene, order, force_render=False):
-    """Project scene.world: a WorldProjection (nothing is stored). Raises WorldError."""
+def project(scene, order, force_render=False, split_lights=None, threshold=None, max_lights=None):
+    """Project scene.world: a WorldProjection (nothing is stored). Raises WorldError.
+
+    split_lights, threshold (0: automatic), max_lights: None uses the scene's setting. With the
+    split, the lights are taken from the full-resolution pixels and the residual is projected.
+    """
     try:
         order = sh.check_order(order)
     except ValueError as error:
         raise WorldError(str(error)) from None
+    settings = getattr(scene, "prt_world", None)
+    split_lights = bool(getattr(settings, "split_lights", False) if split_lights is None else split_lights)
+    threshold = getattr(settings, "light_threshold", 0.0) if threshold is None else threshold
+    max_lights = getattr(settings, "max_lights", core_lights.MAX_LIGHTS // 2) if max_lights is None else max_lights
+    threshold, max_lights = light_split.check_split_settings(threshold, max_lights)
     start = time.perf_counter()
     source = analyse_world(scene)
     notes = []
@@ -78,6 +92,7 @@ def project(scene, order, force_render=False):
             source = _render_source(scene.world, None, str(why))
     truncation = diffuse_truncation = 0.0
     source_size = projected_size = (0, 0)
+    lights = []
     if source.kind == "COLOR":
         color = np.asarray(source.color, dtype=np.float64) * source.strength
         if not np.all(np.isfinite(color)):
@@ -92,17 +107,20 @@ def project(scene, order, force_render=False):
             notes.append(f"world rendered with Cycles because {source.reason}")
             pixels = render_world(scene, resample.needed_height(order))
         source_size = (pixels.shape[1], pixels.shape[0])
+        if split_lights:
+            pixels, lights = light_split.split(pixels, threshold, max_lights)
         image_coeffs, report, energy, projected_size, diffuse_truncation = project_pixels(pixels, order)
         del pixels
         if report.repaired:
             notes.append(f"image pixels repaired: {report.summary()}")
         truncation = resample.truncation_fraction(image_coeffs, energy)
         image_coeffs *= source.strength
+        lights = light_split.scaled(lights, source.strength)
     q = source.mapping.sh_rotation() if source.mapping is not None else np.eye(3)
     coeffs = rotation.rotate(image_coeffs, q)
     if not np.all(np.isfinite(coeffs)):
         raise WorldError(f"World '{source.world_name}' gave non-finite lighting")
-    if not np.any(image_coeffs[0] > 0.0):
+    if not np.any(image_coeffs[0] > 0.0) and not lights:
         raise WorldError(f"World '{source.world_name}' emits no light (its radiance is zero everywhere)")
     return WorldProjection(
         order=order,
@@ -116,6 +134,9 @@ def project(scene, order, force_render=False):
         source_size=source_size,
         projected_size=projected_size,
         warnings=notes,
+        split=split_lights and source.kind != "COLOR",
+        lights=lights,
+        light_share=light_split.share(lights, image_coeffs),
     )
 
 
@@ -140,16 +161,23 @@ def store(scene, result):
     settings.truncation = result.truncation
     settings.diffuse_truncation = result.diffuse_truncation
     settings.message = "; ".join(result.warnings)
+    light_split.store(scene, result.lights)
+    settings.stored_split = result.split
+    settings.light_count = len(result.lights)
+    settings.light_share = result.light_share
+    settings.strongest_elevation = (light_split.elevation(result.lights[0], result.rotation)
+                                    if result.lights else 0.0)
     settings.token = uuid.uuid4().hex
 
 
-def project_and_store(scene, order=None):
-    """Project and store; returns the WorldProjection. On WorldError nothing is changed."""
+def project_and_store(scene, order=None, split_lights=None, threshold=None, max_lights=None):
+    """Project and store; returns the WorldProjection. On WorldError nothing is changed.
+    split_lights, threshold, max_lights: None uses the scene's setting (see project)."""
     if order is None:
         order = scene.prt_world.order
     if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or not 1 <= order <= MAX_ORDER:
         raise WorldError(f"the SH order must be an integer from 1 to {MAX_ORDER}, got {order!r}")
-    result = project(scene, int(order))
+    result = project(scene, int(order), split_lights=split_lights, threshold=threshold, max_lights=max_lights)
     store(scene, result)
     return result
 
@@ -199,3 +227,13 @@ def current_world_coeffs(scene):
     result = rotation.rotate(coeffs, q)
     _cache[scene.as_pointer()] = (key, result)
     return result.copy()
+
+
+def current_world_lights(scene):
+    """The stored split lights in world space for the Mapping rotation now (core.lights.Light
+    list: a light at image direction s is at Q s, the Q of the SH), [] when there are none."""
+    settings = getattr(scene, "prt_world", None)
+    if settings is None or settings.stored_order < 1:
+        return []
+    lights = light_split.stored(scene)
+    return core_lights.rotate_lights(lights, current_rotation(scene)) if lights else []

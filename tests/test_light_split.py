@@ -1,0 +1,260 @@
+"""The light split on the Blender side: projection, storage, rotation, bad input, and Cycles."""
+
+import math
+import os
+import time
+
+import numpy as np
+import pytest
+
+from prt_addon.core import lights as core_lights
+from prt_addon.core import rotation
+
+from test_world import add_mapping, float_image, image_of, known_coeffs, new_world, use_image
+
+pytestmark = pytest.mark.blender
+
+Y0 = 1.0 / math.sqrt(4.0 * math.pi)
+
+
+def sunny_image(height, width, sun=(0.4, 0.6), power=400.0):
+    """A smooth sky (known SH coefficients) with a small very bright patch at (u, v)."""
+    rgb = image_of(known_coeffs(4), height, width)
+    size = max(2, width // 64)
+    row, col = int(sun[1] * height), int(sun[0] * width)
+    rgb[row : row + size, col : col + size] = np.array([1.0, 0.9, 0.7]) * power
+    return rgb
+
+
+def image_world(bpy, scene, rgb, strength=1.0, euler=None):
+    world = new_world(bpy, scene)
+    env = use_image(world, float_image(bpy, "sky", rgb), strength)
+    mapping = add_mapping(world, env, euler) if euler is not None else None
+    return world, mapping
+
+
+def stored_lights(scene):
+    from prt_addon.blender.world import light_split
+
+    return light_split.stored(scene)
+
+
+@pytest.mark.parametrize("size", [(128, 64), (1024, 512)])  # the second is reduced to 512x256
+def test_energy_sky_plus_lights_is_the_unsplit_projection(bpy_module, empty_scene, size):
+    from prt_addon import api
+
+    width, height = size
+    image_world(bpy_module, empty_scene, sunny_image(height, width), strength=1.7)
+    unsplit = api.project_world(empty_scene, 8, split_lights=False)
+    assert not api.world_lights(empty_scene)
+    sky = api.project_world(empty_scene, 8, split_lights=True)
+    lights = api.world_lights(empty_scene)
+    assert 1 <= len(lights) <= 4
+    total = sky[0] + sum(light["power"] for light in lights) * Y0
+    np.testing.assert_allclose(total, unsplit[0], rtol=1e-9)
+    settings = empty_scene.prt_world
+    assert settings.split_lights  # the override did not change the setting
+    assert settings.light_count == len(lights) and 0.0 < settings.light_share < 1.0
+    assert empty_scene.prt_world.projected_size[1] == min(height, 256)
+
+
+def test_mapping_turns_lights_and_sky_together(bpy_module, empty_scene):
+    from prt_addon import api
+    from prt_addon.blender.world import projection as world_projection
+
+    euler = (0.3, -0.2, 0.7)
+    _, mapping = image_world(bpy_module, empty_scene, sunny_image(64, 128), euler=euler)
+    coeffs = api.project_world(empty_scene, 6)
+    q = world_projection.current_rotation(empty_scene)
+    image_lights = stored_lights(empty_scene)
+    assert image_lights
+    by_hand = core_lights.rotate_lights(image_lights, q)
+    got = api.world_lights(empty_scene)
+    for light, expected in zip(got, by_hand):
+        np.testing.assert_allclose(light["direction"], expected.direction, atol=1e-12)
+        np.testing.assert_allclose(light["power"], expected.power, rtol=1e-12)
+    np.testing.assert_allclose(coeffs, rotation.rotate(world_projection.stored_image_coeffs(empty_scene), q))
+    # Turn the node: lights and SH follow live, and agree with a fresh projection.
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(40.0))
+    live_sh, live = api.world_lighting(empty_scene), api.world_lights(empty_scene)
+    assert not np.allclose(live[0]["direction"], got[0]["direction"])
+    fresh_sh = api.project_world(empty_scene, 6)
+    fresh = api.world_lights(empty_scene)
+    np.testing.assert_allclose(live_sh, fresh_sh, atol=1e-12)
+    for a, b in zip(live, fresh):
+        np.testing.assert_allclose(a["direction"], b["direction"], atol=1e-12)
+        np.testing.assert_allclose(a["power"], b["power"], rtol=1e-12)
+    # A light at image direction s is where Cycles shows that texel: at Q s in the world.
+    q = world_projection.current_rotation(empty_scene)
+    np.testing.assert_allclose(q @ stored_lights(empty_scene)[0].direction, fresh[0]["direction"], atol=1e-12)
+
+
+def bake_plane_and_box(bpy, scene, order=4):
+    from prt_addon import api
+
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=8, y_subdivisions=8, size=4.0)
+    ground = bpy.context.active_object
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, 1.0))
+    box = bpy.context.active_object
+    api.bake([ground, box], order=order, samples=64)
+    return ground, box
+
+
+def test_projection_without_lights_key_still_loads_and_shades(bpy_module, empty_scene, tmp_path):
+    from prt_addon import api
+    from prt_addon.blender.world import light_split
+
+    image_world(bpy_module, empty_scene, sunny_image(64, 128))
+    ground, _box = bake_plane_and_box(bpy_module, empty_scene)
+    api.project_world(empty_scene, 4)
+    with_lights = api.shade(ground, empty_scene)
+    assert api.world_lights(empty_scene)
+    del empty_scene[light_split.LIGHTS_KEY]  # as a projection stored before the split
+    path = str(tmp_path / "old.blend")
+    bpy_module.ops.wm.save_as_mainfile(filepath=path)
+    bpy_module.ops.wm.open_mainfile(filepath=path)
+    scene = bpy_module.context.scene
+    assert api.world_lights(scene) == []
+    ground = scene.objects["Grid"]
+    without = api.shade(ground, scene)
+    assert without.shape == with_lights.shape and np.all(np.isfinite(without))
+    assert without.mean() < with_lights.mean()
+
+
+def test_light_is_shadowed_by_the_scene(bpy_module, empty_scene):
+    """Under a light straight above, the ground below the box is dark and the rest lit."""
+    from prt_addon import api
+    from prt_addon.blender.display import lighting
+
+    new_world(bpy_module, empty_scene, color=(0.0, 0.0, 0.0), strength=0.0)
+    image_world(bpy_module, empty_scene, np.full((8, 16, 3), 1e-3))
+    ground, _box = bake_plane_and_box(bpy_module, empty_scene)
+    api.project_world(empty_scene, 2)
+    light = core_lights.Light([0.0, 0.0, 1.0], [3.0, 3.0, 3.0], math.radians(1.0))
+    lighting.set_lights_override(empty_scene, [light])
+    try:
+        values = api.shade(ground, empty_scene)[:, 0]
+    finally:
+        lighting.set_lights_override(empty_scene, None)
+    xy = np.array([ground.matrix_world @ v.co for v in ground.data.vertices])[:, :2]
+    under = np.all(np.abs(xy) < 0.45, axis=1)
+    outside = np.any(np.abs(xy) > 0.55, axis=1)
+    assert under.any() and outside.any()
+    assert values[under].max() < 0.01
+    np.testing.assert_allclose(values[outside], 3.0 / math.pi, rtol=0.02)
+
+
+@pytest.mark.parametrize("kwargs", [dict(threshold=-1.0), dict(threshold=float("nan")),
+                                    dict(threshold="big"), dict(max_lights=9), dict(max_lights=-1),
+                                    dict(max_lights=2.0)])
+def test_bad_split_settings_change_nothing(bpy_module, empty_scene, kwargs):
+    from prt_addon import api
+    from prt_addon.blender.world.nodes import WorldError as Error
+
+    image_world(bpy_module, empty_scene, sunny_image(64, 128))
+    before = api.project_world(empty_scene, 4)
+    token, lights = empty_scene.prt_world.token, api.world_lights(empty_scene)
+    with pytest.raises(Error, match="threshold|lights"):
+        api.project_world(empty_scene, 6, **kwargs)
+    assert empty_scene.prt_world.token == token and empty_scene.prt_world.stored_order == 4
+    np.testing.assert_array_equal(api.world_lighting(empty_scene), before)
+    assert len(api.world_lights(empty_scene)) == len(lights)
+
+
+def test_one_colour_image_and_high_threshold_give_no_lights(bpy_module, empty_scene):
+    from prt_addon import api
+    from prt_addon.blender.world import light_split
+
+    image_world(bpy_module, empty_scene, np.full((32, 64, 3), 0.7))
+    api.project_world(empty_scene, 4)
+    settings = empty_scene.prt_world
+    assert api.world_lights(empty_scene) == [] and settings.light_count == 0 and settings.stored_split
+    assert light_split.summary(settings) == ["No compact bright source:", "no lights"]
+    image_world(bpy_module, empty_scene, sunny_image(64, 128))
+    api.project_world(empty_scene, 4, threshold=1e6)
+    assert api.world_lights(empty_scene) == []
+    api.project_world(empty_scene, 4)
+    lines = light_split.summary(settings)
+    assert lines[0].startswith(f"{settings.light_count} light") and all(len(x) <= 32 for x in lines)
+    new_world(bpy_module, empty_scene, color=(0.2, 0.3, 0.4))
+    api.project_world(empty_scene, 4)
+    assert api.world_lights(empty_scene) == [] and not settings.stored_split
+
+
+# --- against Cycles ---------------------------------------------------------------------------
+
+CYCLES_SAMPLES = 512
+
+
+def rel_rmse_luminance(values, reference):
+    a, b = values @ core_lights.LUMA, reference @ core_lights.LUMA
+    return float(np.sqrt(np.mean((a - b) ** 2)) / np.sqrt(np.mean(b**2)))
+
+
+def cycles_vertex_bake(bpy, scene, objects, samples):
+    """Cycles DIFFUSE/DIRECT per vertex (E/pi for white albedo) of the selected meshes."""
+    bpy.ops.object.select_all(action="DESELECT")
+    for obj in objects:
+        mesh = obj.data
+        attr = mesh.color_attributes.new("cycles", "FLOAT_COLOR", "POINT")
+        mesh.color_attributes.active_color = attr
+        obj.select_set(True)
+    bpy.context.view_layer.objects.active = objects[0]
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = samples
+    scene.cycles.use_denoising = False
+    bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT"}, target="VERTEX_COLORS", use_clear=True)
+    out = []
+    for obj in objects:
+        mesh = obj.data
+        buf = np.empty(len(mesh.vertices) * 4, np.float32)
+        mesh.color_attributes["cycles"].data.foreach_get("color", buf)
+        out.append(buf.reshape(-1, 4)[:, :3].astype(np.float64))
+        mesh.color_attributes.remove(mesh.color_attributes["cycles"])
+    return np.concatenate(out)
+
+
+@pytest.mark.cycles
+def test_suzanne_on_ground_under_city_against_cycles(bpy_module, empty_scene):
+    from prt_addon import api
+
+    bpy = bpy_module
+    scene = empty_scene
+    path = os.path.join(bpy.utils.system_resource("DATAFILES", path="studiolights/world"), "city.exr")
+    world = new_world(bpy, scene)
+    env = use_image(world, bpy.data.images.load(path))
+    add_mapping(world, env, (0.0, 0.0, math.radians(40.0)))
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=24, y_subdivisions=24, size=6.0)
+    ground = bpy.context.active_object
+    bpy.ops.mesh.primitive_monkey_add(location=(0.0, 0.0, 0.75), rotation=(0.0, 0.0, math.radians(30.0)))
+    suzanne = bpy.context.active_object
+    modifier = suzanne.modifiers.new("sub", "SUBSURF")
+    modifier.levels = 1
+    bpy.ops.object.modifier_apply(modifier=modifier.name)
+    suzanne.data.shade_smooth()
+    objects = [suzanne, ground]
+    material = bpy.data.materials.new("white")
+    for obj in objects:
+        obj.data.materials.append(material)
+
+    start = time.perf_counter()
+    api.bake(objects, order=8, samples=1024)
+    prt_seconds = time.perf_counter() - start
+    start = time.perf_counter()
+    reference = cycles_vertex_bake(bpy, scene, objects, CYCLES_SAMPLES)
+    cycles_seconds = time.perf_counter() - start
+
+    api.project_world(scene, 8, split_lights=False)
+    unsplit = np.concatenate([api.shade(obj, scene) for obj in objects])
+    api.project_world(scene, 8, split_lights=True)
+    assert api.world_lights(scene)
+    start = time.perf_counter()
+    split = np.concatenate([api.shade(obj, scene) for obj in objects])
+    shade_seconds = time.perf_counter() - start
+    error_split = rel_rmse_luminance(split, reference)
+    error_unsplit = rel_rmse_luminance(unsplit, reference)
+    print(f"\nvertices {len(reference)}, split {100 * error_split:.2f} %, unsplit {100 * error_unsplit:.2f} %, "
+          f"PRT bake {prt_seconds:.1f} s, Cycles {cycles_seconds:.1f} s, shade {shade_seconds:.2f} s")
+    assert error_split < 0.025
+    assert error_unsplit > 0.04
