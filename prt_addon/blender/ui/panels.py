@@ -3,10 +3,10 @@
 import bpy
 
 from .. import storage
-from ..display import lighting, shader
+from ..display import lighting
 from ..world import light_split, nodes
 from .bake_panel import VIEW3D_PT_prt_bake, VIEW3D_PT_prt_bake_options, VIEW3D_PT_prt_bake_report
-from .sidebar import PRTSubPanel
+from .sidebar import PRTSubPanel, wrapped_label
 
 
 class VIEW3D_PT_prt(bpy.types.Panel):
@@ -74,18 +74,19 @@ class VIEW3D_PT_prt_display(PRTSubPanel, bpy.types.Panel):
         if settings.albedo_source == "ATTRIBUTE":
             layout.prop(settings, "albedo_attribute")
         if lighting.world_light(scene) is None:
-            layout.label(text="No projected world lighting", icon="ERROR")
+            wrapped_label(layout, context, "No world lighting yet: press Project World", icon="ERROR")
         obj = context.active_object
         if obj is not None and obj.type == "MESH" and storage.RECORD in obj.data:
             info, problem = storage.usable_bake(obj.data, check_topology=False)
             if info is None:
-                layout.label(text=f"{obj.name}: not displayed ({problem})", icon="ERROR")
+                wrapped_label(layout, context, f"{obj.name} is not drawn: {problem}", icon="ERROR")
             else:
-                path = "vertex attributes" if shader.shader_mode(info.count) == "ATTR" else "texture"
-                layout.label(text=f"{obj.name}: order {info.order}, transfer from {path}")
+                layout.label(text=f"{obj.name}: drawn at order {info.order}")
         view = scene.view_settings
         if view.view_transform != "Standard":
-            layout.label(text=f"Viewport shows radiance as 'Standard', not '{view.view_transform}'", icon="INFO")
+            wrapped_label(layout, context, f"PRT colours are shown as with the Standard view transform, "
+                          f"not {view.view_transform}: set Color Management > View Transform to Standard "
+                          "to compare them with Blender's", icon="INFO")
 
 
 CLASSES = [
