@@ -128,12 +128,13 @@ def test_light_is_shadowed_by_the_scene(bpy_module, empty_scene):
 
     new_world(bpy_module, empty_scene, color=(0.0, 0.0, 0.0), strength=0.0)
     image_world(bpy_module, empty_scene, np.full((8, 16, 3), 1e-3))
-    ground, _box = bake_plane_and_box(bpy_module, empty_scene)
+    ground, box = bake_plane_and_box(bpy_module, empty_scene)
     api.project_world(empty_scene, 2)
     light = core_lights.Light([0.0, 0.0, 1.0], [3.0, 3.0, 3.0], math.radians(1.0))
     lighting.set_lights_override(empty_scene, [light])
     try:
         values = api.shade(ground, empty_scene)[:, 0]
+        on_box = api.shade(box, empty_scene)[:, 0]  # a CORNER bake: one row per face corner
     finally:
         lighting.set_lights_override(empty_scene, None)
     xy = np.array([ground.matrix_world @ v.co for v in ground.data.vertices])[:, :2]
@@ -142,6 +143,12 @@ def test_light_is_shadowed_by_the_scene(bpy_module, empty_scene):
     assert under.any() and outside.any()
     assert values[under].max() < 0.01
     np.testing.assert_allclose(values[outside], 3.0 / math.pi, rtol=0.02)
+    assert len(on_box) == len(box.data.loops)
+    normals = np.empty(len(box.data.loops) * 3, np.float32)
+    box.data.corner_normals.foreach_get("vector", normals)
+    top = normals.reshape(-1, 3)[:, 2] > 0.99
+    np.testing.assert_allclose(on_box[top], 3.0 / math.pi, rtol=0.02)
+    assert on_box[~top].max() < 0.01
 
 
 @pytest.mark.parametrize("kwargs", [dict(threshold=-1.0), dict(threshold=float("nan")),

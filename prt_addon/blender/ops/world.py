@@ -36,6 +36,10 @@ class PRT_OT_project_world(bpy.types.Operator):
             f"{result.seconds:.2f} s; beyond the order: {100.0 * result.truncation:.1f} % of the radiance energy, "
             f"{100.0 * result.diffuse_truncation:.2g} % of the diffuse shading energy",
         )
+        if result.split:
+            self.report({"INFO"}, f"{len(result.lights)} light(s) split off, "
+                        f"{100.0 * result.light_share:.0f} % of the world's light" if result.lights
+                        else "No compact bright source: no lights split off")
         return {"FINISHED"}
 
 
