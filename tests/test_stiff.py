@@ -76,7 +76,7 @@ def _check(objs, scene, order):
     from prt_addon.blender import storage
     from prt_addon.blender.world import projection as world_projection
 
-    api.project_world(scene, order)
+    api.project_world(scene, order, split_lights=False)  # the SH path alone
     lowest = 0.0
     for obj in objs:
         r = api.shade(obj, scene)

@@ -1,5 +1,6 @@
 """Projected world lighting against Cycles. This is what catches a mirrored or half-turned
-lighting, so it is never skipped when bpy is available.
+lighting, so it is never skipped when bpy is available. The light split is off here: these
+tests measure the SH projection of the whole world (tests/test_light_split.py tests the split).
 
 An unoccluded convex object (a 32x16 smooth UV sphere, radius 1, at the origin) is baked by Cycles:
 DIFFUSE / DIRECT to a FLOAT_COLOR POINT attribute gives E/pi per vertex (white albedo, irradiance
@@ -150,7 +151,7 @@ def test_sphere_bake_agrees_with_projected_hdri(bpy_module, empty_scene, name, o
     from prt_addon import api
 
     world, env = hdri_world(bpy_module, empty_scene, name, euler, vector_type)
-    coeffs = api.project_world(empty_scene, order)
+    coeffs = api.project_world(empty_scene, order, split_lights=False)
     assert empty_scene.prt_world.source_kind == "IMAGE"  # direct path, rotation applied on SH
     obj = add_sphere(bpy_module, empty_scene)
     normals, baked = bake_sphere(bpy_module, empty_scene, obj)
@@ -167,7 +168,7 @@ def test_live_rotation_agrees_with_cycles(bpy_module, empty_scene):
     from prt_addon.blender.world import projection as world_projection
 
     world, env = hdri_world(bpy_module, empty_scene, "courtyard", (0.0, 0.0, 0.0))
-    api.project_world(empty_scene, 8)
+    api.project_world(empty_scene, 8, split_lights=False)
     mapping = world.node_tree.nodes["Mapping"]
     mapping.inputs["Rotation"].default_value = (math.radians(-40.0), 0.0, math.radians(75.0))
     coeffs = world_projection.current_world_coeffs(empty_scene)
@@ -190,7 +191,7 @@ def test_sky_texture_world_is_rendered_and_agrees_with_cycles(bpy_module, empty_
     sky.sun_elevation = math.radians(20.0)
     sky.sun_rotation = math.radians(60.0)
     world.node_tree.links.new(sky.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
-    coeffs = api.project_world(empty_scene, 8)
+    coeffs = api.project_world(empty_scene, 8, split_lights=False)
     settings = empty_scene.prt_world
     assert settings.source_kind == "RENDER" and "Sky Texture" in settings.message
     # The temporary scene, camera and world copy are gone.
