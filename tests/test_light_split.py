@@ -265,3 +265,21 @@ def test_suzanne_on_ground_under_city_against_cycles(bpy_module, empty_scene):
           f"PRT bake {prt_seconds:.1f} s, Cycles {cycles_seconds:.1f} s, shade {shade_seconds:.2f} s")
     assert error_split < 0.025
     assert error_unsplit > 0.04
+
+
+@pytest.mark.cycles
+def test_rendered_world_is_split_too(bpy_module, empty_scene):
+    """A Sky Texture goes through the Cycles render fallback; its sun becomes a light."""
+    from prt_addon import api
+
+    world = new_world(bpy_module, empty_scene)
+    tree = world.node_tree
+    sky = tree.nodes.new("ShaderNodeTexSky")
+    tree.links.new(sky.outputs["Color"], tree.nodes["Background"].inputs["Color"])
+    unsplit = api.project_world(empty_scene, 4, split_lights=False)
+    split = api.project_world(empty_scene, 4, split_lights=True)
+    assert empty_scene.prt_world.source_kind == "RENDER"
+    lights = api.world_lights(empty_scene)
+    assert lights and empty_scene.prt_world.strongest_elevation > 0.0
+    total = split[0] + sum(light["power"] for light in lights) * Y0
+    np.testing.assert_allclose(total, unsplit[0], rtol=1e-3)  # two renders: their noise differs
