@@ -54,6 +54,18 @@ class PixelReport:
     def repaired(self) -> int:
         return self.nan + self.inf + self.negative
 
+    def in_words(self) -> str:
+        """The repair as a user reads it: what was wrong with the image and what was done."""
+        def values(n):
+            return f"{n:,} HDRI value was" if n == 1 else f"{n:,} HDRI values were"
+
+        parts = []
+        if self.negative:
+            parts.append(f"{values(self.negative)} negative and treated as black")
+        if self.nan or self.inf:
+            parts.append(f"{values(self.nan + self.inf)} not a number (NaN or infinite) and treated as black")
+        return "; ".join(parts)
+
     def summary(self) -> str:
         if not self.repaired:
             return "all pixels finite and non-negative"

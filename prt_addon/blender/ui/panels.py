@@ -47,11 +47,11 @@ class VIEW3D_PT_prt_world(PRTSubPanel, bpy.types.Panel):
             w, h = settings.image_size
             col.label(text=f"{settings.image_name} ({w}x{h})")
         if settings.mapping_node:
-            col.label(text=f"Rotated by {settings.mapping_node} ({settings.mapping_type.lower()})")
-        col.label(text=f"{settings.seconds:.2f} s, beyond the order: radiance {100.0 * settings.truncation:.1f} %, "
-                  f"diffuse {100.0 * settings.diffuse_truncation:.2g} %")
+            wrapped_label(col, context, f"Turned by the Mapping node '{settings.mapping_node}'")
+        col.label(text=f"Projected in {settings.seconds:.2f} s")
         if settings.message:
-            col.label(text=settings.message, icon="ERROR")
+            for note in settings.message.split("; "):
+                wrapped_label(layout, context, note, icon="INFO")
 
 
 class VIEW3D_PT_prt_display(PRTSubPanel, bpy.types.Panel):

@@ -112,7 +112,7 @@ def project(scene, order, force_render=False, split_lights=None, threshold=None,
         image_coeffs, report, energy, projected_size, diffuse_truncation = project_pixels(pixels, order)
         del pixels
         if report.repaired:
-            notes.append(f"image pixels repaired: {report.summary()}")
+            notes.append(report.in_words())
         truncation = resample.truncation_fraction(image_coeffs, energy)
         image_coeffs *= source.strength
         lights = light_split.scaled(lights, source.strength)
