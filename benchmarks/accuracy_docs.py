@@ -35,6 +35,7 @@ def _first_reaching(rows, key, target):
 
 # --- plots ---------------------------------------------------------------------------------------
 
+
 def plots(results, img_dir):
     import matplotlib
 
@@ -51,12 +52,17 @@ def plots(results, img_dir):
                 ax = axes[row, j]
                 for n in cfg["orders"]:
                     rows = sorted(_rows(res, set="FIBONACCI", order=n), key=lambda r: r["samples"])
-                    ax.loglog([r["seconds"] for r in rows], [100 * r[key][h] for r in rows], "-o",
-                              color=COLORS.get(n), ms=3, label=f"PRT order {n}")
+                    ax.loglog(
+                        [r["seconds"] for r in rows],
+                        [100 * r[key][h] for r in rows],
+                        "-o",
+                        color=COLORS.get(n),
+                        ms=3,
+                        label=f"PRT order {n}",
+                    )
                 if row == 0:
                     c = res["cycles"][h]["curve"]
-                    ax.loglog([x["seconds"] for x in c], [100 * x["error"] for x in c], "k--s", ms=4,
-                              label="Cycles")
+                    ax.loglog([x["seconds"] for x in c], [100 * x["error"] for x in c], "k--s", ms=4, label="Cycles")
                     for x in c:
                         ax.annotate(str(x["samples"]), (x["seconds"], 100 * x["error"]), fontsize=7)
                 ax.set_title(f"{scene} / {h}: {title}", fontsize=9)
@@ -79,8 +85,13 @@ def plots(results, img_dir):
             ax = axes[i, j]
             for kind in cfg["sets"]:
                 rows = sorted(_rows(results["scenes"][scene], set=kind, order=n), key=lambda r: r["samples"])
-                ax.loglog([r["seconds"] for r in rows], [100 * r["transfer_rel_error"] for r in rows],
-                          SET_STYLE.get(kind, "-o"), ms=3, label=kind.lower())
+                ax.loglog(
+                    [r["seconds"] for r in rows],
+                    [100 * r["transfer_rel_error"] for r in rows],
+                    SET_STYLE.get(kind, "-o"),
+                    ms=3,
+                    label=kind.lower(),
+                )
             ax.set_title(f"{scene}, order {n}: transfer MC error", fontsize=9)
             ax.set_xlabel("bake seconds")
             ax.set_ylabel("RMS |t - t_conv| / RMS |t_conv|, %")
@@ -94,6 +105,7 @@ def plots(results, img_dir):
 
 
 # --- markdown ------------------------------------------------------------------------------------
+
 
 def table(header, rows):
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
@@ -145,53 +157,85 @@ def write(results, docs_dir):
     L = []
     a = L.append
     a("# Accuracy: error against run time, stiff lighting, float32 storage\n")
-    a("Every number on this page is measured by one command (about "
-      f"{results.get('wall_seconds', 0) / 60:.0f} min on the project's shared 2-core VM):\n")
-    a("```sh\n.venv/bin/python benchmarks/accuracy_report.py          # writes this page, its plots and\n"
-      "                                                        # benchmarks/accuracy_results.json\n"
-      ".venv/bin/python benchmarks/accuracy_report.py --quick  # smoke run (~1 min, fewer settings)\n"
-      ".venv/bin/python benchmarks/accuracy_report.py --from-json benchmarks/accuracy_results.json\n"
-      "                                                        # rewrite the page from saved numbers\n```\n")
-    a("It needs the development venv (bpy, embreex, matplotlib from `requirements-dev.txt`); the add-on "
-      "itself does not use matplotlib. Extreme inputs (degenerate meshes, NaN, 1x1 images, ...) are "
-      "covered by tests, listed in [extreme.md](extreme.md).\n")
-    a(f"Run: {results.get('started', '?')} to {results.get('finished', '?')}. Timings are wall-clock "
-      "seconds on a noisy shared machine (other processes were running): read them as +-20 %.\n")
+    a(
+        "Every number on this page is measured by one command (about "
+        f"{results.get('wall_seconds', 0) / 60:.0f} min on the project's shared 2-core VM):\n"
+    )
+    a(
+        "```sh\n.venv/bin/python benchmarks/accuracy_report.py          # writes this page, its plots and\n"
+        "                                                        # benchmarks/accuracy_results.json\n"
+        ".venv/bin/python benchmarks/accuracy_report.py --quick  # smoke run (~1 min, fewer settings)\n"
+        ".venv/bin/python benchmarks/accuracy_report.py --from-json benchmarks/accuracy_results.json\n"
+        "                                                        # rewrite the page from saved numbers\n```\n"
+    )
+    a(
+        "It needs the development venv (bpy, embreex, matplotlib from `requirements-dev.txt`); the add-on "
+        "itself does not use matplotlib. Extreme inputs (degenerate meshes, NaN, 1x1 images, ...) are "
+        "covered by tests, listed in [extreme.md](extreme.md).\n"
+    )
+    a(
+        f"Run: {results.get('started', '?')} to {results.get('finished', '?')}. Timings are wall-clock "
+        "seconds on a noisy shared machine (other processes were running): read them as +-20 %.\n"
+    )
     a("## Method\n")
-    vs = ", ".join(f"**{s}** ({sum(r['vertices'])} vertices: object {r['vertices'][0]}, ground {r['vertices'][1]})"
-                   for s, r in scenes.items())
-    a(f"- Scenes: {vs}. `suzanne` is Suzanne subdivided once, smooth, standing on a 4 x 4 ground grid "
-      "(32 x 32 quads); `torus` is a smooth torus (R 1, r 0.4, 48 x 24) tilted 50 degrees, on the same "
-      "ground. All object transforms are the identity. Every vertex is a sample (objects and ground).")
-    a(f"- Lighting: Blender's bundled HDRIs {', '.join(cfg['hdris'])} (peaks below), projected by "
-      "`api.project_world` at each order.")
-    a("- Error = **relative RMSE of luminance** over all vertices: sqrt(mean (Y - Y_ref)^2) / "
-      "sqrt(mean Y_ref^2), Y = 0.2126 R + 0.7152 G + 0.0722 B, with the PRT radiance clamped at 0 as the "
-      "display does. The PRT radiance is what `api.shade` returns (checked in the run: max difference "
-      f"{max(r['shade_check'] for r in scenes.values()):.1e} of the peak).")
-    a(f"- **Monte-Carlo (MC) error**: against a converged bake of the same order ({cfg['converged']} "
-      "Fibonacci directions). **Total error**: against Cycles' `DIFFUSE` bake with "
-      f"`pass_filter={{'DIRECT'}}` at {cfg['cycles_ref']} samples (E / pi, the same quantity), so it "
-      "includes the SH band limit and the Cycles reference's own noise (estimated below).")
-    a(f"- Bakes: `api.bake` of both objects, orders {cfg['orders']}, samples {cfg['samples']}, direction "
-      f"sets {', '.join(s.lower() for s in cfg['sets'])}; time = wall-clock of the whole `api.bake` call "
-      "(2 threads, Embree).")
-    a(f"- Cycles: the same scene baked at {cfg['cycles_curve']} samples (different seeds from the "
-      "reference), timed around `bpy.ops.object.bake` (CPU, 2 cores).\n")
+    vs = ", ".join(
+        f"**{s}** ({sum(r['vertices'])} vertices: object {r['vertices'][0]}, ground {r['vertices'][1]})"
+        for s, r in scenes.items()
+    )
+    a(
+        f"- Scenes: {vs}. `suzanne` is Suzanne subdivided once, smooth, standing on a 4 x 4 ground grid "
+        "(32 x 32 quads); `torus` is a smooth torus (R 1, r 0.4, 48 x 24) tilted 50 degrees, on the same "
+        "ground. All object transforms are the identity. Every vertex is a sample (objects and ground)."
+    )
+    a(
+        f"- Lighting: Blender's bundled HDRIs {', '.join(cfg['hdris'])} (peaks below), projected by "
+        "`api.project_world` at each order."
+    )
+    a(
+        "- Error = **relative RMSE of luminance** over all vertices: sqrt(mean (Y - Y_ref)^2) / "
+        "sqrt(mean Y_ref^2), Y = 0.2126 R + 0.7152 G + 0.0722 B, with the PRT radiance clamped at 0 as the "
+        "display does. The PRT radiance is what `api.shade` returns (checked in the run: max difference "
+        f"{max(r['shade_check'] for r in scenes.values()):.1e} of the peak)."
+    )
+    a(
+        f"- **Monte-Carlo (MC) error**: against a converged bake of the same order ({cfg['converged']} "
+        "Fibonacci directions). **Total error**: against Cycles' `DIFFUSE` bake with "
+        f"`pass_filter={{'DIRECT'}}` at {cfg['cycles_ref']} samples (E / pi, the same quantity), so it "
+        "includes the SH band limit and the Cycles reference's own noise (estimated below)."
+    )
+    a(
+        f"- Bakes: `api.bake` of both objects, orders {cfg['orders']}, samples {cfg['samples']}, direction "
+        f"sets {', '.join(s.lower() for s in cfg['sets'])}; time = wall-clock of the whole `api.bake` call "
+        "(2 threads, Embree)."
+    )
+    a(
+        f"- Cycles: the same scene baked at {cfg['cycles_curve']} samples (different seeds from the "
+        "reference), timed around `bpy.ops.object.bake` (CPU, 2 cores).\n"
+    )
     a("HDRI peaks (max pixel value) and mean luminance:\n")
-    a(table(["HDRI", "peak", "mean Y"], [[h, f"{p['peak']:.3g}", f"{p['mean']:.3g}"]
-                                         for h, p in results["hdri_peaks"].items()]) + "\n")
+    a(
+        table(
+            ["HDRI", "peak", "mean Y"],
+            [[h, f"{p['peak']:.3g}", f"{p['mean']:.3g}"] for h, p in results["hdri_peaks"].items()],
+        )
+        + "\n"
+    )
 
     # Recommendation first.
     targets, rec_rows = recommendation(results)
     sat = saturation(results)
     a("## Which order and sample count to choose\n")
-    a("Cheapest Fibonacci setting (order, samples, bake seconds for the whole scene) whose **total** "
-      "error against Cycles is at most the target at that sample count and every larger one:\n")
+    a(
+        "Cheapest Fibonacci setting (order, samples, bake seconds for the whole scene) whose **total** "
+        "error against Cycles is at most the target at that sample count and every larger one:\n"
+    )
     a(table(["scene", "HDRI"] + [f"<= {pct(t, 0)} %" for t in targets], rec_rows) + "\n")
-    a("Samples beyond which more rays hardly help (MC error at most one third of the band-limit error "
-      "for every scene and HDRI): " + ", ".join(
-          f"order {n}: {'>' + str(max(cfg['samples'])) if s == math.inf else s}" for n, s in sat.items()) + ".\n")
+    a(
+        "Samples beyond which more rays hardly help (MC error at most one third of the band-limit error "
+        "for every scene and HDRI): "
+        + ", ".join(f"order {n}: {'>' + str(max(cfg['samples'])) if s == math.inf else s}" for n, s in sat.items())
+        + ".\n"
+    )
     a("RECOMMENDATION_TEXT\n")
 
     # Cycles.
@@ -200,30 +244,55 @@ def write(results, docs_dir):
     for s, res in scenes.items():
         for h in cfg["hdris"]:
             c = res["cycles"][h]
-            rows.append([s, h, f"{c['ref_seconds']:.1f}"] + [f"{x['seconds']:.1f} s, {pct(x['error'])} %" for x in c["curve"]])
-    a(table(["scene", "HDRI", f"reference {cfg['cycles_ref']} samples, s"] +
-            [f"{n} samples" for n in cfg["cycles_curve"]], rows) + "\n")
-    a("Cycles' error falls as samples^-1/2 from a fixed overhead of a few seconds (scene sync, "
-      "kernel set-up). Its noise at the reference sample count, extrapolated from the "
-      f"{cfg['cycles_curve'][-1]}-sample point (its error e is the noise of both bakes, e^2 = s^2 "
-      f"({cfg['cycles_ref']} / {cfg['cycles_curve'][-1]} + 1) with s the reference's), is "
-      + ", ".join(f"{pct(res['cycles'][h]['curve'][-1]['error'] / math.sqrt(cfg['cycles_ref'] / cfg['cycles_curve'][-1] + 1))} %"
-                  f" ({sc} / {h})" for sc, res in scenes.items() for h in cfg["hdris"]) +
-      ": a floor under every total error below.\n")
+            rows.append(
+                [s, h, f"{c['ref_seconds']:.1f}"] + [f"{x['seconds']:.1f} s, {pct(x['error'])} %" for x in c["curve"]]
+            )
+    a(
+        table(
+            ["scene", "HDRI", f"reference {cfg['cycles_ref']} samples, s"]
+            + [f"{n} samples" for n in cfg["cycles_curve"]],
+            rows,
+        )
+        + "\n"
+    )
+    a(
+        "Cycles' error falls as samples^-1/2 from a fixed overhead of a few seconds (scene sync, "
+        "kernel set-up). Its noise at the reference sample count, extrapolated from the "
+        f"{cfg['cycles_curve'][-1]}-sample point (its error e is the noise of both bakes, e^2 = s^2 "
+        f"({cfg['cycles_ref']} / {cfg['cycles_curve'][-1]} + 1) with s the reference's), is "
+        + ", ".join(
+            f"{pct(res['cycles'][h]['curve'][-1]['error'] / math.sqrt(cfg['cycles_ref'] / cfg['cycles_curve'][-1] + 1))} %"
+            f" ({sc} / {h})"
+            for sc, res in scenes.items()
+            for h in cfg["hdris"]
+        )
+        + ": a floor under every total error below.\n"
+    )
 
     # Band limit.
     a("## SH band limit (converged transfer against Cycles)\n")
-    rows = [[s, h] + [pct(res["band_limit"][h][str(n)]) for n in cfg["orders"]]
-            for s, res in scenes.items() for h in cfg["hdris"]]
+    rows = [
+        [s, h] + [pct(res["band_limit"][h][str(n)]) for n in cfg["orders"]]
+        for s, res in scenes.items()
+        for h in cfg["hdris"]
+    ]
     a(table(["scene", "HDRI"] + [f"order {n}, %" for n in cfg["orders"]], rows) + "\n")
 
     # Bake times.
     a("## Bake time (Fibonacci, whole `api.bake` call, seconds)\n")
     for s, res in scenes.items():
-        rows = [[f"order {n}"] + [f"{next(r['seconds'] for r in _rows(res, set='FIBONACCI', order=n, samples=k)):.2f}"
-                                  for k in cfg["samples"]] for n in cfg["orders"]]
-        a(f"{s} ({sum(res['vertices'])} vertices; converged bake of {cfg['converged']} directions: "
-          f"{res['converged']['seconds']:.1f} s):\n")
+        rows = [
+            [f"order {n}"]
+            + [
+                f"{next(r['seconds'] for r in _rows(res, set='FIBONACCI', order=n, samples=k)):.2f}"
+                for k in cfg["samples"]
+            ]
+            for n in cfg["orders"]
+        ]
+        a(
+            f"{s} ({sum(res['vertices'])} vertices; converged bake of {cfg['converged']} directions: "
+            f"{res['converged']['seconds']:.1f} s):\n"
+        )
         a(table(["", *[str(k) for k in cfg["samples"]]], rows) + "\n")
     a("Time is nearly independent of the order: it is ray tracing.\n")
 
@@ -245,8 +314,10 @@ def write(results, docs_dir):
 
     # Direction sets.
     a("## Direction sets: which reaches a given error in the least time\n")
-    a("Transfer MC error = RMS over vertices of |t - t_conv| (L2 over the coefficients) / RMS |t_conv|, "
-      "independent of the lighting.\n")
+    a(
+        "Transfer MC error = RMS over vertices of |t - t_conv| (L2 over the coefficients) / RMS |t_conv|, "
+        "independent of the lighting.\n"
+    )
     a(f"![direction sets](images/{images[-1]})\n")
     rows = []
     for s, res in scenes.items():
@@ -263,14 +334,22 @@ def write(results, docs_dir):
 
     # Error estimate.
     a("## The bake's error estimate against the measured error\n")
-    a("`report.error_estimate` (RMS over vertices of the per-point estimate, see [bake.md](bake.md)) divided "
-      "by the measured RMS |t - t_conv| of the same bake; in brackets the ratio before the Fibonacci "
-      "calibration (`core.transfer.error_calibration`):\n")
+    a(
+        "`report.error_estimate` (RMS over vertices of the per-point estimate, see [bake.md](bake.md)) divided "
+        "by the measured RMS |t - t_conv| of the same bake; in brackets the ratio before the Fibonacci "
+        "calibration (`core.transfer.error_calibration`):\n"
+    )
     for kind in cfg["sets"]:
-        ratios = [b["estimate"] / b["true_transfer_error"] for res in scenes.values() for b in res["bakes"]
-                  if b["set"] == kind]
-        a(f"- {kind.lower()}: {min(ratios):.2f} to {max(ratios):.2f} (median {np.median(ratios):.2f}) over "
-          "every scene, order and sample count")
+        ratios = [
+            b["estimate"] / b["true_transfer_error"]
+            for res in scenes.values()
+            for b in res["bakes"]
+            if b["set"] == kind
+        ]
+        a(
+            f"- {kind.lower()}: {min(ratios):.2f} to {max(ratios):.2f} (median {np.median(ratios):.2f}) over "
+            "every scene, order and sample count"
+        )
     a("")
     for kind in cfg["sets"]:
         rows = []
@@ -280,8 +359,10 @@ def write(results, docs_dir):
                 for k in cfg["samples"]:
                     r = _rows(res, set=kind, order=n, samples=k)[0]
                     raw = r["estimate"] / r.get("calibration", 1.0) / r["true_transfer_error"]
-                    cells.append(f"{r['estimate'] / r['true_transfer_error']:.2f}"
-                                 + (f" ({raw:.2f})" if r.get("calibration", 1.0) != 1.0 else ""))
+                    cells.append(
+                        f"{r['estimate'] / r['true_transfer_error']:.2f}"
+                        + (f" ({raw:.2f})" if r.get("calibration", 1.0) != 1.0 else "")
+                    )
                 rows.append(cells)
         a(f"**{kind.lower()}**\n")
         a(table(["scene", "order", *[str(k) for k in cfg["samples"]]], rows) + "\n")
@@ -289,16 +370,18 @@ def write(results, docs_dir):
 
     # Stiff.
     a("## Stiff lighting: ringing and windows\n")
-    a("Shaded radiance sum_i L_i t_i with the **converged** transfer (so only the lighting's band limit and "
-      "the window matter), lighting windowed by each window of `benchmarks/windows.py`: `HANNING` and `LANCZOS` at "
-      "their default width (the order), `AUTO_LAPLACIAN` and `AUTO_HANNING` the weakest window making the "
-      "lighting non-negative on the sphere (`auto_window`). Columns: fraction of vertices with a negative "
-      "channel before clamping, the minimum radiance over vertices and channels divided by the mean truth "
-      "luminance, and the total error of the clamped luminance (the display clamps at 0). Truth: Cycles "
-      f"({cfg['cycles_ref']} samples) for the HDRIs; for the synthetic caps (a sun disk of angular radius "
-      "0.5 to 5 degrees and radiance 1e4 to 1e6 on a uniform background of 1, 35 degrees above the "
-      "horizon) the cap is traced exactly (400 rays per vertex into the cap) and the background is the "
-      "converged t_0. HDRIs without a Cycles truth show ringing only.\n")
+    a(
+        "Shaded radiance sum_i L_i t_i with the **converged** transfer (so only the lighting's band limit and "
+        "the window matter), lighting windowed by each window of `benchmarks/windows.py`: `HANNING` and `LANCZOS` at "
+        "their default width (the order), `AUTO_LAPLACIAN` and `AUTO_HANNING` the weakest window making the "
+        "lighting non-negative on the sphere (`auto_window`). Columns: fraction of vertices with a negative "
+        "channel before clamping, the minimum radiance over vertices and channels divided by the mean truth "
+        "luminance, and the total error of the clamped luminance (the display clamps at 0). Truth: Cycles "
+        f"({cfg['cycles_ref']} samples) for the HDRIs; for the synthetic caps (a sun disk of angular radius "
+        "0.5 to 5 degrees and radiance 1e4 to 1e6 on a uniform background of 1, 35 degrees above the "
+        "horizon) the cap is traced exactly (400 rays per vertex into the cap) and the background is the "
+        "converged t_0. HDRIs without a Cycles truth show ringing only.\n"
+    )
     # Summary over all cases and orders, per window.
     rows = []
     for w in WINDOWS:
@@ -313,15 +396,41 @@ def write(results, docs_dir):
                 finite &= r["finite"]
                 if "err_clamped" in r:
                     ratio.append(r["err_clamped"] / by[(case, n, "NONE")]["err_clamped"])
-        rows.append([w, f"{pct(max(neg), 2)}", f"{100 * min(mins):.2f} %",
-                     f"{np.median(ratio):.2f}", f"{min(ratio):.2f} - {max(ratio):.2f}", "yes" if finite else "NO"])
-    gain = [(r["err_clamped"] - r["err_unclamped"]) / r["err_unclamped"] for res in scenes.values()
-            for r in res["stiff"] if r["window"] == "NONE" and "err_clamped" in r]
-    a(f"Clamping at 0 (no window) changes the error by {100 * min(gain):+.1f} % to {100 * max(gain):+.1f} % "
-      "(relative) against the unclamped radiance: it never makes it worse, since the truth is >= 0.\n")
+        rows.append(
+            [
+                w,
+                f"{pct(max(neg), 2)}",
+                f"{100 * min(mins):.2f} %",
+                f"{np.median(ratio):.2f}",
+                f"{min(ratio):.2f} - {max(ratio):.2f}",
+                "yes" if finite else "NO",
+            ]
+        )
+    gain = [
+        (r["err_clamped"] - r["err_unclamped"]) / r["err_unclamped"]
+        for res in scenes.values()
+        for r in res["stiff"]
+        if r["window"] == "NONE" and "err_clamped" in r
+    ]
+    a(
+        f"Clamping at 0 (no window) changes the error by {100 * min(gain):+.1f} % to {100 * max(gain):+.1f} % "
+        "(relative) against the unclamped radiance: it never makes it worse, since the truth is >= 0.\n"
+    )
     a("Summary over every case, order and scene:\n")
-    a(table(["window", "max negative fraction, %", "lowest min / mean", "median error ratio to NONE",
-             "error ratio range", "all finite"], rows) + "\n")
+    a(
+        table(
+            [
+                "window",
+                "max negative fraction, %",
+                "lowest min / mean",
+                "median error ratio to NONE",
+                "error ratio range",
+                "all finite",
+            ],
+            rows,
+        )
+        + "\n"
+    )
     s0 = next(iter(scenes))
     for n in [n for n in (4, 8) if n in cfg["orders"]]:
         rows = []
@@ -347,12 +456,36 @@ def write(results, docs_dir):
         f = res["float32"]
         worst = max(r["f32_error"] for r in f["rows"])
         mc = min(r["mc_error"] for r in f["rows"])
-        rows.append([s, f["samples"], f"{f['coeff_rel']:.1e}", f"{f['stored_vs_float64']:.1e}", f"{worst:.1e}",
-                     f"{mc:.1e}", f"{mc / worst:.0e}"])
-    a("The same bake computed in float64 (the sums are float64) and rounded to float32 (what the "
-      "`FLOAT_COLOR` attributes hold), order " + str(max(cfg["orders"])) + ", Fibonacci:\n")
-    a(table(["scene", "samples", "max coefficient rounding / max |t|", "stored bake vs float64 / max |t|",
-             "worst shading error (any HDRI, order)", "smallest MC error at those samples", "ratio"], rows) + "\n")
+        rows.append(
+            [
+                s,
+                f["samples"],
+                f"{f['coeff_rel']:.1e}",
+                f"{f['stored_vs_float64']:.1e}",
+                f"{worst:.1e}",
+                f"{mc:.1e}",
+                f"{mc / worst:.0e}",
+            ]
+        )
+    a(
+        "The same bake computed in float64 (the sums are float64) and rounded to float32 (what the "
+        "`FLOAT_COLOR` attributes hold), order " + str(max(cfg["orders"])) + ", Fibonacci:\n"
+    )
+    a(
+        table(
+            [
+                "scene",
+                "samples",
+                "max coefficient rounding / max |t|",
+                "stored bake vs float64 / max |t|",
+                "worst shading error (any HDRI, order)",
+                "smallest MC error at those samples",
+                "ratio",
+            ],
+            rows,
+        )
+        + "\n"
+    )
     a("FLOAT32_TEXT\n")
     text = "\n".join(L)
     extra = os.path.join(os.path.dirname(os.path.abspath(__file__)), "accuracy_text.md")

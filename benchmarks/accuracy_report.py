@@ -37,21 +37,42 @@ import numpy as np  # noqa: E402
 from prt_addon.core.resample import LUMINANCE as LUMA  # noqa: E402
 
 FULL = dict(
-    orders=[2, 3, 4, 6, 8], samples=[64, 128, 256, 512, 1024, 2048, 4096],
-    sets=["FIBONACCI", "STRATIFIED", "UNIFORM"], converged=65536,
-    hdris=["forest", "city", "sunrise"], all_hdris=["city", "courtyard", "forest", "interior",
-                                                     "night", "studio", "sunrise", "sunset"],
-    cycles_ref=1024, cycles_curve=[16, 64, 256], scenes=["suzanne", "torus"],
-    caps_deg=[0.5, 1.0, 2.0, 5.0], caps_radiance=[1e4, 1e5, 1e6], f32_samples=1024,
+    orders=[2, 3, 4, 6, 8],
+    samples=[64, 128, 256, 512, 1024, 2048, 4096],
+    sets=["FIBONACCI", "STRATIFIED", "UNIFORM"],
+    converged=65536,
+    hdris=["forest", "city", "sunrise"],
+    all_hdris=["city", "courtyard", "forest", "interior", "night", "studio", "sunrise", "sunset"],
+    cycles_ref=1024,
+    cycles_curve=[16, 64, 256],
+    scenes=["suzanne", "torus"],
+    caps_deg=[0.5, 1.0, 2.0, 5.0],
+    caps_radiance=[1e4, 1e5, 1e6],
+    f32_samples=1024,
 )
-QUICK = dict(FULL, orders=[2, 4, 8], samples=[64, 256], sets=["FIBONACCI", "UNIFORM"],
-             converged=8192, hdris=["forest", "city"], all_hdris=["city", "forest", "sunrise"],
-             cycles_ref=128, cycles_curve=[16], scenes=["suzanne"], caps_deg=[0.5, 5.0],
-             caps_radiance=[1e4, 1e6], f32_samples=256)
+QUICK = dict(
+    FULL,
+    orders=[2, 4, 8],
+    samples=[64, 256],
+    sets=["FIBONACCI", "UNIFORM"],
+    converged=8192,
+    hdris=["forest", "city"],
+    all_hdris=["city", "forest", "sunrise"],
+    cycles_ref=128,
+    cycles_curve=[16],
+    scenes=["suzanne"],
+    caps_deg=[0.5, 5.0],
+    caps_radiance=[1e4, 1e6],
+    f32_samples=256,
+)
 WINDOWS = ["NONE", "HANNING", "LANCZOS", "AUTO_LAPLACIAN", "AUTO_HANNING"]
-CAP_AXIS = np.array([math.cos(math.radians(35)) * math.cos(math.radians(40)),
-                     math.cos(math.radians(35)) * math.sin(math.radians(40)),
-                     math.sin(math.radians(35))])
+CAP_AXIS = np.array(
+    [
+        math.cos(math.radians(35)) * math.cos(math.radians(40)),
+        math.cos(math.radians(35)) * math.sin(math.radians(40)),
+        math.sin(math.radians(35)),
+    ]
+)
 BACKGROUND = 1.0
 
 
@@ -64,6 +85,7 @@ def rel_err(y, ref):
 
 
 # --- scenes ------------------------------------------------------------------------------------
+
 
 def _material(bpy):
     mat = bpy.data.materials.get("white") or bpy.data.materials.new("white")
@@ -110,8 +132,9 @@ def build_scene(bpy, name):
         u = np.arange(nu) * 2 * np.pi / nu
         v = np.arange(nv) * 2 * np.pi / nv
         uu, vv = np.meshgrid(u, v, indexing="ij")
-        verts = np.stack([(big + small * np.cos(vv)) * np.cos(uu), (big + small * np.cos(vv)) * np.sin(uu),
-                          small * np.sin(vv)], -1).reshape(-1, 3)
+        verts = np.stack(
+            [(big + small * np.cos(vv)) * np.cos(uu), (big + small * np.cos(vv)) * np.sin(uu), small * np.sin(vv)], -1
+        ).reshape(-1, 3)
         faces = []
         for i in range(nu):
             for j in range(nv):
@@ -202,6 +225,7 @@ def radiance(transfer, light):
 
 # --- float64 transfer (bypassing the float32 storage) ------------------------------------------
 
+
 def scene_points(bpy, objs):
     """World positions, normals, offsets and an Embree occluder of the whole scene."""
     from prt_addon.blender.bake import settings as bake_settings
@@ -219,8 +243,12 @@ def scene_points(bpy, objs):
         v = core_mesh.transform_points(m4, mesh_read.read_positions(obj.data))
         box = raytrace.bounding_box(v)
         diag = float(np.linalg.norm(box[1] - box[0]))
-        off.append(np.full(len(pts.positions), max(bake_settings.OFFSET_REL * diag,
-                                                    bake_settings.OFFSET_ULP * float(np.abs(v).max()))))
+        off.append(
+            np.full(
+                len(pts.positions),
+                max(bake_settings.OFFSET_REL * diag, bake_settings.OFFSET_ULP * float(np.abs(v).max())),
+            )
+        )
         verts.append(v)
         tris.append(mesh_read.read_triangles(obj.data) + base)
         base += len(v)
@@ -232,8 +260,9 @@ def transfer_float64(points, order, samples):
     from prt_addon.core import directions, transfer
 
     pos, nrm, off, occ = points
-    comp = transfer.TransferComputation(pos, nrm, directions.make_directions("FIBONACCI", samples, 0),
-                                        order, occ, offset=off)
+    comp = transfer.TransferComputation(
+        pos, nrm, directions.make_directions("FIBONACCI", samples, 0), order, occ, offset=off
+    )
     comp.coeffs = np.zeros(comp.coeffs.shape, dtype=np.float64)  # keep the float64 sums
     return comp.run().coeffs
 
@@ -267,6 +296,7 @@ def cap_truth(points, t0_conv, half_angle, value, k=400):
 
 # --- windows -----------------------------------------------------------------------------------
 
+
 def windowed(light, kind):
     import windows
 
@@ -285,8 +315,11 @@ def ringing_row(transfer, light, truth_y):
     errors of the clamped and unclamped luminance against the truth (None without truth)."""
     u = transfer[:, : light.shape[0]].astype(np.float64) @ light
     mean = float(np.mean(truth_y)) if truth_y is not None else float(np.mean(np.maximum(u, 0) @ LUMA))
-    row = {"neg_fraction": float(np.mean(np.any(u < 0, axis=1))), "min_rel": float(u.min() / mean),
-           "finite": bool(np.all(np.isfinite(u)))}
+    row = {
+        "neg_fraction": float(np.mean(np.any(u < 0, axis=1))),
+        "min_rel": float(u.min() / mean),
+        "finite": bool(np.all(np.isfinite(u))),
+    }
     if truth_y is not None:
         row["err_clamped"] = rel_err(np.maximum(u, 0) @ LUMA, truth_y)
         row["err_unclamped"] = rel_err(u @ LUMA, truth_y)
@@ -294,6 +327,7 @@ def ringing_row(transfer, light, truth_y):
 
 
 # --- the run -----------------------------------------------------------------------------------
+
 
 def run(cfg):
     import bpy
@@ -309,8 +343,7 @@ def run(cfg):
         objs = build_scene(bpy, scene_name)
         scene = bpy.context.scene
         nverts = [len(o.data.vertices) for o in objs]
-        res = results["scenes"][scene_name] = {"vertices": nverts, "bakes": [], "cycles": {},
-                                                "lights": {}}
+        res = results["scenes"][scene_name] = {"vertices": nverts, "bakes": [], "cycles": {}, "lights": {}}
         log(scene_name, "vertices", nverts)
         # Lighting per HDRI and order (projected through the add-on, as a user would).
         lights = {}
@@ -326,11 +359,23 @@ def run(cfg):
             curve = []
             for i, s in enumerate(cfg["cycles_curve"]):
                 sec, img = cycles_bake(bpy, scene, objs, s, seed=100 + i)
-                curve.append({"samples": s, "seconds": sec, "error": rel_err(img @ LUMA, truth[hdri]),
-                              "min": float(img.min()), "finite": bool(np.all(np.isfinite(img)))})
+                curve.append(
+                    {
+                        "samples": s,
+                        "seconds": sec,
+                        "error": rel_err(img @ LUMA, truth[hdri]),
+                        "min": float(img.min()),
+                        "finite": bool(np.all(np.isfinite(img))),
+                    }
+                )
             res["cycles"][hdri] = {"ref_samples": cfg["cycles_ref"], "ref_seconds": secs, "curve": curve}
-            log(scene_name, hdri, "cycles ref", f"{secs:.1f}s", [(c["samples"], round(c["seconds"], 1),
-                                                                  round(c["error"], 4)) for c in curve])
+            log(
+                scene_name,
+                hdri,
+                "cycles ref",
+                f"{secs:.1f}s",
+                [(c["samples"], round(c["seconds"], 1), round(c["error"], 4)) for c in curve],
+            )
         # Converged PRT transfer.
         sec, rep, conv = prt_bake(objs, max_order, cfg["converged"], "FIBONACCI")
         res["converged"] = {"samples": cfg["converged"], "seconds": sec}
@@ -343,8 +388,7 @@ def run(cfg):
         res["shade_check"] = check
         assert check < 1e-5, check
         conv_y = {h: {n: radiance(conv, lights[h][n]) @ LUMA for n in cfg["orders"]} for h in cfg["hdris"]}
-        res["band_limit"] = {h: {str(n): rel_err(conv_y[h][n], truth[h]) for n in cfg["orders"]}
-                             for h in cfg["hdris"]}
+        res["band_limit"] = {h: {str(n): rel_err(conv_y[h][n], truth[h]) for n in cfg["orders"]} for h in cfg["hdris"]}
         # Sweep.
         for kind in cfg["sets"]:
             for n in cfg["orders"]:
@@ -353,33 +397,57 @@ def run(cfg):
                 for s in cfg["samples"]:
                     sec, rep, t = prt_bake(objs, n, s, kind)
                     true_err = float(np.sqrt(np.mean(np.sum((t - tc) ** 2, axis=1))))
-                    row = {"set": kind, "order": n, "samples": s, "seconds": sec,
-                           "calibration": transfer.error_calibration(kind, s, n),
-                           "rays": rep.rays_traced, "estimate": rep.error_estimate,
-                           "true_transfer_error": true_err, "transfer_rel_error": true_err / tc_norm,
-                           "mc": {}, "total": {}}
+                    row = {
+                        "set": kind,
+                        "order": n,
+                        "samples": s,
+                        "seconds": sec,
+                        "calibration": transfer.error_calibration(kind, s, n),
+                        "rays": rep.rays_traced,
+                        "estimate": rep.error_estimate,
+                        "true_transfer_error": true_err,
+                        "transfer_rel_error": true_err / tc_norm,
+                        "mc": {},
+                        "total": {},
+                    }
                     for h in cfg["hdris"]:
                         y = radiance(t, lights[h][n]) @ LUMA
                         row["mc"][h] = rel_err(y, conv_y[h][n])
                         row["total"][h] = rel_err(y, truth[h])
                     res["bakes"].append(row)
-                log(scene_name, kind, "order", n, "done",
-                    [(r["samples"], round(r["seconds"], 2), round(r["mc"][cfg["hdris"][0]], 4))
-                     for r in res["bakes"][-len(cfg["samples"]):]])
+                log(
+                    scene_name,
+                    kind,
+                    "order",
+                    n,
+                    "done",
+                    [
+                        (r["samples"], round(r["seconds"], 2), round(r["mc"][cfg["hdris"][0]], 4))
+                        for r in res["bakes"][-len(cfg["samples"]) :]
+                    ],
+                )
         # Float32 storage error.
         points = scene_points(bpy, objs)
         t64 = transfer_float64(points, max_order, cfg["f32_samples"])
         t32 = t64.astype(np.float32).astype(np.float64)
-        f32 = {"samples": cfg["f32_samples"], "coeff_rel": float(np.abs(t32 - t64).max() / np.abs(t64).max()),
-               "rows": []}
+        f32 = {
+            "samples": cfg["f32_samples"],
+            "coeff_rel": float(np.abs(t32 - t64).max() / np.abs(t64).max()),
+            "rows": [],
+        }
         stored = prt_bake(objs, max_order, cfg["f32_samples"], "FIBONACCI")[2].astype(np.float64)
         f32["stored_vs_float64"] = float(np.abs(stored - t64).max() / np.abs(t64).max())
         for h in cfg["hdris"]:
             for n in cfg["orders"]:
                 y64 = np.maximum(t64[:, : n * n] @ lights[h][n], 0) @ LUMA
                 y32 = np.maximum(t32[:, : n * n] @ lights[h][n], 0) @ LUMA
-                mc = next(r["mc"][h] for r in res["bakes"] if r["set"] == "FIBONACCI" and r["order"] == n
-                          and r["samples"] == max(s for s in cfg["samples"] if s <= cfg["f32_samples"]))
+                mc = next(
+                    r["mc"][h]
+                    for r in res["bakes"]
+                    if r["set"] == "FIBONACCI"
+                    and r["order"] == n
+                    and r["samples"] == max(s for s in cfg["samples"] if s <= cfg["f32_samples"])
+                )
                 f32["rows"].append({"hdri": h, "order": n, "f32_error": rel_err(y32, y64), "mc_error": mc})
         res["float32"] = f32
         log(scene_name, "float32", f32["coeff_rel"], f32["stored_vs_float64"])
@@ -410,8 +478,10 @@ def run(cfg):
     # HDRI peaks (for the text).
     peaks = {}
     for h in cfg["all_hdris"]:
-        img = bpy.data.images.load(os.path.join(bpy.utils.system_resource("DATAFILES", path="studiolights/world"),
-                                                f"{h}.exr"), check_existing=True)
+        img = bpy.data.images.load(
+            os.path.join(bpy.utils.system_resource("DATAFILES", path="studiolights/world"), f"{h}.exr"),
+            check_existing=True,
+        )
         px = np.empty(img.size[0] * img.size[1] * img.channels, np.float32)
         img.pixels.foreach_get(px)
         rgb = px.reshape(-1, img.channels)[:, :3]

@@ -90,8 +90,7 @@ def raw_batches_seconds(occ, batches, threads):
 def raw_embree_seconds(occ, origins, dirs, threads):
     bounds = np.linspace(0, len(origins), threads + 1).astype(int)
     threads_list = [
-        threading.Thread(target=occ.occluded, args=(origins[a:b], dirs[a:b]))
-        for a, b in zip(bounds[:-1], bounds[1:])
+        threading.Thread(target=occ.occluded, args=(origins[a:b], dirs[a:b])) for a, b in zip(bounds[:-1], bounds[1:])
     ]
     t0 = time.perf_counter()
     for t in threads_list:
@@ -151,8 +150,10 @@ def throughput(args):
     prt_addon.register()
     objects = build_scene(args.subdiv, args.grid)
     points = sum(len(o.data.vertices) for o in objects)
-    print(f"scene: Suzanne subdivided {args.subdiv}x + ground grid {args.grid}^2: {points:,} vertices, "
-          f"{args.samples} Fibonacci directions, order 4, 2 threads, chunk_rays {transfer.CHUNK_RAYS:,}")
+    print(
+        f"scene: Suzanne subdivided {args.subdiv}x + ground grid {args.grid}^2: {points:,} vertices, "
+        f"{args.samples} Fibonacci directions, order 4, 2 threads, chunk_rays {transfer.CHUNK_RAYS:,}"
+    )
     if not raytrace.EMBREE_AVAILABLE:
         print("embreex not available: skipping the Embree figures")
     else:
@@ -183,34 +184,40 @@ def throughput(args):
         rays = report.rays_traced
         assert len(origins) == rays, (len(origins), rays)
         m = lambda x: rays / np.median(x) / 1e6  # noqa: E731 - Mrays/s at the median time
-        print(f"rays traced {rays:,}, skipped {report.rays_skipped:,} "
-              f"(below horizon {report.skipped_below_horizon:,}, nothing to occlude "
-              f"{report.skipped_unoccludable:,}); {len(batches)} batches of ~{rays // len(batches):,} rays")
+        print(
+            f"rays traced {rays:,}, skipped {report.rays_skipped:,} "
+            f"(below horizon {report.skipped_below_horizon:,}, nothing to occlude "
+            f"{report.skipped_unoccludable:,}); {len(batches)} batches of ~{rays // len(batches):,} rays"
+        )
         print(f"{args.repeats} interleaved repeats (Williams order); wall seconds as median [min - max]:")
         print(f"  bake, whole api.bake call                  {spread(bake_s)}  {m(bake_s):6.2f} Mrays/s")
         print(f"  bake, compute (trace+projection)           {spread(compute_s)}  {m(compute_s):6.2f} Mrays/s")
         print(f"  raw embreex, one run() per thread          {spread(whole_s)}  {m(whole_s):6.2f} Mrays/s")
         print(f"  raw embreex, the bake's batches        R   {spread(batched_s)}  {m(batched_s):6.2f} Mrays/s")
-        print(f"  raw embreex, TriangleMesh + BVH build + batches  RB  {spread(built_s)}  "
-              f"{m(built_s):6.2f} Mrays/s")
-        print(f"  raw embreex, shared buffers + BVH build + batches RBs {spread(shared_s)}  "
-              f"{m(shared_s):6.2f} Mrays/s")
+        print(f"  raw embreex, TriangleMesh + BVH build + batches  RB  {spread(built_s)}  {m(built_s):6.2f} Mrays/s")
+        print(f"  raw embreex, shared buffers + BVH build + batches RBs {spread(shared_s)}  {m(shared_s):6.2f} Mrays/s")
         print("ratios per repeat (raw time / bake time), median [min - max]; target >= 0.85 for the")
         print("whole call against raw embreex as it ships (RB); against the same shared-buffer build")
         print("(RBs) and against tracing alone (R) below it. The first object's slices start during")
         print("the job's set-up, so compute misses a few of them (compute ratios read 1-3 % high):")
-        print(f"  whole call / RB (+ extraction, writing) wall {spread(built_s / bake_s)}   "
-              f"CPU {spread(built_cpu / bake_cpu)}")
+        print(
+            f"  whole call / RB (+ extraction, writing) wall {spread(built_s / bake_s)}   "
+            f"CPU {spread(built_cpu / bake_cpu)}"
+        )
         print(f"  whole call / RBs                    wall {spread(shared_s / bake_s)}")
         print(f"  whole call / R                      wall {spread(batched_s / bake_s)}")
-        print(f"  compute / RB                        wall {spread(built_s / compute_s)}   "
-              f"CPU {spread(built_cpu / compute_cpu)}")
+        print(
+            f"  compute / RB                        wall {spread(built_s / compute_s)}   "
+            f"CPU {spread(built_cpu / compute_cpu)}"
+        )
         print(f"  compute / R  (tracing and projection vs raw tracing) wall {spread(batched_s / compute_s)}")
         print(f"error estimate {report.error_estimate:.2e} ({100 * report.error_estimate_relative:.2f} % of |t|)")
     bvh_samples = max(16, args.samples // 8)
     report = api.bake(objects, order=4, samples=bvh_samples, backend="BVHTREE")
-    print(f"BVHTree fallback bake, {bvh_samples} directions: {report.rays_traced:,} rays in "
-          f"{report.seconds:.2f} s = {report.rays_per_second / 1e6:.3f} Mrays/s")
+    print(
+        f"BVHTree fallback bake, {bvh_samples} directions: {report.rays_traced:,} rays in "
+        f"{report.seconds:.2f} s = {report.rays_per_second / 1e6:.3f} Mrays/s"
+    )
 
 
 def memory_child(samples, side):
@@ -227,26 +234,28 @@ def memory_child(samples, side):
     base_peak = vm_kib("VmHWM")
     report = api.bake([grid], order=4, samples=samples)
     peak = vm_kib("VmHWM")
-    print(f"{verts} {samples} {before} {base_peak} {peak} {report.rays_traced} {report.seconds:.2f} "
-          f"{report.backend}")
+    print(f"{verts} {samples} {before} {base_peak} {peak} {report.rays_traced} {report.seconds:.2f} {report.backend}")
 
 
 def memory(args):
-    print(f"peak memory, {args.side ** 2:,}-vertex wavy grid (smooth, order 4), fresh process per run:")
+    print(f"peak memory, {args.side**2:,}-vertex wavy grid (smooth, order 4), fresh process per run:")
     for samples in args.memory_samples:
         out = subprocess.run(
-            [sys.executable, os.path.abspath(__file__), "--memory-child", str(samples),
-             "--side", str(args.side)],
-            capture_output=True, text=True, cwd=ROOT,
+            [sys.executable, os.path.abspath(__file__), "--memory-child", str(samples), "--side", str(args.side)],
+            capture_output=True,
+            text=True,
+            cwd=ROOT,
         )
         line = [l for l in out.stdout.splitlines() if l and l[0].isdigit()]
         if out.returncode or not line:
             print("  failed:", out.stderr[-2000:])
             continue
         verts, s, before, base_peak, peak, rays, seconds, backend = line[-1].split()
-        print(f"  {int(verts):,} vertices, {s} directions: RSS before bake {int(before) / 1024:.0f} MiB "
-              f"(peak so far {int(base_peak) / 1024:.0f}), peak during bake {int(peak) / 1024:.0f} MiB "
-              f"(+{(int(peak) - int(before)) / 1024:.0f} MiB); {int(rays):,} rays in {seconds} s ({backend})")
+        print(
+            f"  {int(verts):,} vertices, {s} directions: RSS before bake {int(before) / 1024:.0f} MiB "
+            f"(peak so far {int(base_peak) / 1024:.0f}), peak during bake {int(peak) / 1024:.0f} MiB "
+            f"(+{(int(peak) - int(before)) / 1024:.0f} MiB); {int(rays):,} rays in {seconds} s ({backend})"
+        )
 
 
 def main():

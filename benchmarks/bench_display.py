@@ -166,8 +166,10 @@ def main():
     flat = flat_shader()
     print(f"renderer: {gpu.platform.renderer_get()}")
     obj.data.calc_loop_triangles()
-    print(f"mesh: {len(obj.data.loop_triangles):,} triangles, {len(obj.data.vertices):,} vertices; "
-          f"{args.size}x{args.size} offscreen, median of {args.frames} interleaved frames")
+    print(
+        f"mesh: {len(obj.data.loop_triangles):,} triangles, {len(obj.data.vertices):,} vertices; "
+        f"{args.size}x{args.size} offscreen, median of {args.frames} interleaved frames"
+    )
     print(f"{'order':>5} {'coeffs':>6} {'path':>8} {'flat ms':>9} {'PRT ms':>9} {'ratio':>6}")
     for order in args.orders:
         gpu_cache.clear_caches()
@@ -175,9 +177,13 @@ def main():
         lighting.set_light_override(scene, analytic.cap_coeffs(order, (1, 0, 0), 0.3, radiance=(5, 4, 3)))
         info, _ = storage.usable_bake(obj.data)
         entry = gpu_cache.get_mesh_entry(obj.data, info, "WHITE", "")
-        prt_t, flat_t = time_frames(scene, obj, mvp, entry, display_shader.get_shader(info.count), flat, args.frames, args.size)
-        print(f"{order:>5} {order * order:>6} {display_shader.shader_mode(info.count):>8} "
-              f"{flat_t * 1e3:>9.1f} {prt_t * 1e3:>9.1f} {prt_t / flat_t:>6.2f}")
+        prt_t, flat_t = time_frames(
+            scene, obj, mvp, entry, display_shader.get_shader(info.count), flat, args.frames, args.size
+        )
+        print(
+            f"{order:>5} {order * order:>6} {display_shader.shader_mode(info.count):>8} "
+            f"{flat_t * 1e3:>9.1f} {prt_t * 1e3:>9.1f} {prt_t / flat_t:>6.2f}"
+        )
 
     print()
     print("lighting-rotation update (world rotation + object frame + std140 pack + UBO upload)")

@@ -55,8 +55,7 @@ def synthetic():
         noise = rng.random((height, width, 3)).astype(np.float32)
         cases = (
             (f"{width}x{height} sky + 0.5 deg sun", sky, {}),
-            (f"{width}x{height} 30 % bright (noise)", noise, {"threshold": 0.7 * 0.7,
-                                                             "min_share": 0.0}),
+            (f"{width}x{height} 30 % bright (noise)", noise, {"threshold": 0.7 * 0.7, "min_share": 0.0}),
         )
         for name, image, kwargs in cases:
             median, best = timed(lambda: lights.extract_lights(image, **kwargs), repeats)
@@ -74,8 +73,10 @@ def bundled_worlds():
         return
     folder = bpy.utils.system_resource("DATAFILES", path="studiolights/world")
     print(f"\nBlender {bpy.app.version_string} world HDRIs (automatic threshold, max 4 lights)")
-    print(f"{'world':>10} {'size':>9} {'peak':>8} {'T':>7} {'by':>7} {'lights':>6} "
-          f"{'share':>6} {'elev.':>6} {'angle':>6} {'ms':>6}  each light: share % / angle deg")
+    print(
+        f"{'world':>10} {'size':>9} {'peak':>8} {'T':>7} {'by':>7} {'lights':>6} "
+        f"{'share':>6} {'elev.':>6} {'angle':>6} {'ms':>6}  each light: share % / angle deg"
+    )
     for name in sorted(f[:-4] for f in os.listdir(folder) if f.endswith(".exr")):
         image = bpy.data.images.load(os.path.join(folder, f"{name}.exr"))
         width, height = image.size
@@ -94,11 +95,12 @@ def bundled_worlds():
         elevation = np.degrees(np.arcsin(strongest.direction[2])) if strongest else float("nan")
         angle = np.degrees(strongest.angle) if strongest else float("nan")
         peak = float(lights._luminance(pixels).max())
-        each = " ".join(f"{100 * light.luminance / total:.1f}/{np.degrees(light.angle):.2f}"
-                        for light in found)
-        print(f"{name:>10} {width}x{height:<4} {peak:>8.0f} {threshold:>7.2f} {rule:>7} "
-              f"{len(found):>6} {100 * share:>5.1f}% {elevation:>6.1f} {angle:>6.2f} "
-              f"{median:>6.1f}  {each}")
+        each = " ".join(f"{100 * light.luminance / total:.1f}/{np.degrees(light.angle):.2f}" for light in found)
+        print(
+            f"{name:>10} {width}x{height:<4} {peak:>8.0f} {threshold:>7.2f} {rule:>7} "
+            f"{len(found):>6} {100 * share:>5.1f}% {elevation:>6.1f} {angle:>6.2f} "
+            f"{median:>6.1f}  {each}"
+        )
 
 
 if __name__ == "__main__":

@@ -90,11 +90,18 @@ def main():
     objects = [obj, ground]
     obj.data.calc_loop_triangles()
     print(f"renderer: {gpu.platform.renderer_get()}")
-    print(f"mesh: {len(obj.data.loop_triangles):,} triangles (+ a 2-triangle ground); {args.size}x{args.size}; "
-          f"shadow maps {shadows.RESOLUTION}x{shadows.RESOLUTION}; median of {args.frames} interleaved frames")
+    print(
+        f"mesh: {len(obj.data.loop_triangles):,} triangles (+ a 2-triangle ground); {args.size}x{args.size}; "
+        f"shadow maps {shadows.RESOLUTION}x{shadows.RESOLUTION}; median of {args.frames} interleaved frames"
+    )
 
-    variants = [("PRT only", 0, False), ("1 light, cached", 1, False), ("1 light, map drawn", 1, True),
-                ("4 lights, cached", 4, False), ("4 lights, maps drawn", 4, True)]
+    variants = [
+        ("PRT only", 0, False),
+        ("1 light, cached", 1, False),
+        ("1 light, map drawn", 1, True),
+        ("4 lights, cached", 4, False),
+        ("4 lights, maps drawn", 4, True),
+    ]
     times = {name: [] for name, _, _ in variants}
     states = {name: {} for name, _, _ in variants}  # each variant keeps its own maps
     off = gpu.types.GPUOffScreen(args.size, args.size, format="RGBA32F")

@@ -73,8 +73,10 @@ def main():
             world_projection.current_world_coeffs(scene)
 
         cached = median_time(lambda: world_projection.current_world_coeffs(scene), repeats * 20)
-        print(f"  order {order:>2}: {1e3 * median_time(update, repeats * 20):.3f} ms "
-              f"(unchanged rotation, cached: {1e3 * cached:.3f} ms)")
+        print(
+            f"  order {order:>2}: {1e3 * median_time(update, repeats * 20):.3f} ms "
+            f"(unchanged rotation, cached: {1e3 * cached:.3f} ms)"
+        )
 
     print("render fallback (Sky Texture, Cycles panorama 512x256, 16 samples, 2 cores):")
     sky = tree.nodes.new("ShaderNodeTexSky")

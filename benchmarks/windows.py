@@ -287,9 +287,7 @@ def _refine_minima(coeffs, order, seeds, step, min_step):
         xa, sa = x[act], steps[act]
         rows = np.arange(act.size)
         e1, e2 = _tangent_frames(xa)
-        off = sa[:, None, None] * (
-            _STENCIL[None, :, 0:1] * e1[:, None, :] + _STENCIL[None, :, 1:2] * e2[:, None, :]
-        )
+        off = sa[:, None, None] * (_STENCIL[None, :, 0:1] * e1[:, None, :] + _STENCIL[None, :, 1:2] * e2[:, None, :])
         p = xa[:, None, :] + off
         p /= np.linalg.norm(p, axis=2, keepdims=True)
         v = (sh_basis(p.reshape(-1, 3), order) @ coeffs).min(axis=1).reshape(act.size, 9)

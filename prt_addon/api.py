@@ -53,8 +53,9 @@ def project_world(scene=None, order=None, split_lights=None, threshold=None, max
     from .blender.world import projection as _world
 
     scene = bpy.context.scene if scene is None else scene
-    result = _world.project_and_store(scene, order, split_lights=split_lights, threshold=threshold,
-                                      max_lights=max_lights)
+    result = _world.project_and_store(
+        scene, order, split_lights=split_lights, threshold=threshold, max_lights=max_lights
+    )
     return result.coeffs.copy()
 
 
@@ -68,8 +69,10 @@ def world_lights(scene=None):
     from .blender.display import lighting as _lighting
 
     lights = _lighting.world_lights(bpy.context.scene if scene is None else scene)
-    return [{"direction": light.direction.copy(), "power": light.power.copy(), "angle": float(light.angle)}
-            for light in lights]
+    return [
+        {"direction": light.direction.copy(), "power": light.power.copy(), "angle": float(light.angle)}
+        for light in lights
+    ]
 
 
 def world_lighting(scene=None):
@@ -109,8 +112,18 @@ def save_png(image, path, scene=None, background=None):
     return _offscreen.save_png(image, path, scene, background)
 
 
-def bake(objects, order=4, samples=256, shadows=True, backend="AUTO", direction_set="FIBONACCI",
-         seed=0, self_shadow_only=False, progress=None, **options):
+def bake(
+    objects,
+    order=4,
+    samples=256,
+    shadows=True,
+    backend="AUTO",
+    direction_set="FIBONACCI",
+    seed=0,
+    self_shadow_only=False,
+    progress=None,
+    **options,
+):
     """Bake diffuse SH transfer into mesh objects (docs/bake.md, storage: docs/storage.md).
 
     objects: an Object or a list; meshes that cannot be baked are listed in report.skipped.
@@ -129,9 +142,18 @@ def bake(objects, order=4, samples=256, shadows=True, backend="AUTO", direction_
     """
     from .blender.bake import job as _job
 
-    return _job.bake(objects, order=order, samples=samples, shadows=shadows, backend=backend,
-                          direction_set=direction_set, seed=seed,
-                          self_shadow_only=self_shadow_only, progress=progress, **options)
+    return _job.bake(
+        objects,
+        order=order,
+        samples=samples,
+        shadows=shadows,
+        backend=backend,
+        direction_set=direction_set,
+        seed=seed,
+        self_shadow_only=self_shadow_only,
+        progress=progress,
+        **options,
+    )
 
 
 def bake_status(obj, reason=False):

@@ -45,8 +45,22 @@ def download_wheels(platforms, wheel_dir):
     for platform in platforms:
         for python in PYTHON_VERSIONS:
             subprocess.run(
-                [sys.executable, "-m", "pip", "download", "--quiet", "--no-deps", "--only-binary=:all:",
-                 "--python-version", python, "--platform", PLATFORM_TAGS[platform], "--dest", wheel_dir, EMBREEX],
+                [
+                    sys.executable,
+                    "-m",
+                    "pip",
+                    "download",
+                    "--quiet",
+                    "--no-deps",
+                    "--only-binary=:all:",
+                    "--python-version",
+                    python,
+                    "--platform",
+                    PLATFORM_TAGS[platform],
+                    "--dest",
+                    wheel_dir,
+                    EMBREEX,
+                ],
                 check=True,
             )
     return sorted(os.path.basename(p) for p in glob.glob(os.path.join(wheel_dir, "*.whl")))
@@ -58,7 +72,9 @@ def stage(stage_dir, platforms, wheels):
     for name in SOURCES:
         source = os.path.join(ROOT, name)
         if os.path.isdir(source):
-            shutil.copytree(source, os.path.join(stage_dir, name), ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+            shutil.copytree(
+                source, os.path.join(stage_dir, name), ignore=shutil.ignore_patterns("__pycache__", "*.pyc")
+            )
         else:
             shutil.copy2(source, stage_dir)
     manifest_path = os.path.join(stage_dir, "blender_manifest.toml")
@@ -78,9 +94,11 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--output-dir", default=os.path.join(ROOT, "build", "dist"))
     parser.add_argument("--platforms", default=",".join(PLATFORM_TAGS))
-    parser.add_argument("--no-wheels", action="store_true",
-                        help="bundle no embreex wheel (what a platform without one gets: the BVH tree "
-                             "fallback); nothing is downloaded")
+    parser.add_argument(
+        "--no-wheels",
+        action="store_true",
+        help="bundle no embreex wheel (what a platform without one gets: the BVH tree fallback); nothing is downloaded",
+    )
     args = parser.parse_args(argv)
     platforms = [p for p in args.platforms.split(",") if p]
     unknown = set(platforms) - set(PLATFORM_TAGS)
@@ -99,8 +117,19 @@ def main(argv=None):
     shutil.copytree(wheel_dir, os.path.join(stage_dir, "wheels"))
     os.makedirs(args.output_dir, exist_ok=True)
     builder = blender_ext_script()
-    subprocess.run([sys.executable, builder, "build", "--source-dir", stage_dir, "--output-dir", args.output_dir,
-                    "--split-platforms"], check=True)
+    subprocess.run(
+        [
+            sys.executable,
+            builder,
+            "build",
+            "--source-dir",
+            stage_dir,
+            "--output-dir",
+            args.output_dir,
+            "--split-platforms",
+        ],
+        check=True,
+    )
     zips = sorted(glob.glob(os.path.join(args.output_dir, "*.zip")))
     for path in zips:
         print(f"{os.path.getsize(path) / 1e6:8.1f} MB  {path}")

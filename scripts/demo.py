@@ -97,8 +97,11 @@ def build_scene(hdri_path):
     scene.collection.objects.link(camera)
     camera.location = (4.6, -5.4, 3.6)
     direction = -np.array(camera.location) + np.array([0.0, 0.0, 0.9])
-    camera.rotation_euler = (np.arctan2(np.hypot(direction[0], direction[1]), -direction[2]), 0.0,
-                             np.arctan2(direction[1], direction[0]) - np.pi / 2)
+    camera.rotation_euler = (
+        np.arctan2(np.hypot(direction[0], direction[1]), -direction[2]),
+        0.0,
+        np.arctan2(direction[1], direction[0]) - np.pi / 2,
+    )
     scene.camera = camera
     scene.render.resolution_x, scene.render.resolution_y = 480, 360
 
@@ -158,15 +161,18 @@ def print_summary(args, summary):
     status, report = summary["bake"]
     points = report["points"]
     print(f"PRT Lighting demo: {args.hdri}.exr lighting Suzanne on a ground plane")
-    print(f"  Baked {len(report['objects'])} objects ({points:,} points) at order {report['order']} in "
-          f"{report['seconds']:.2f} s: {report['rays_traced'] / 1e6:.1f} M rays, about "
-          f"{100.0 * report['error_estimate_relative']:.1f} % noise ({report['backend']}, {status.lower()})")
+    print(
+        f"  Baked {len(report['objects'])} objects ({points:,} points) at order {report['order']} in "
+        f"{report['seconds']:.2f} s: {report['rays_traced'] / 1e6:.1f} M rays, about "
+        f"{100.0 * report['error_estimate_relative']:.1f} % noise ({report['backend']}, {status.lower()})"
+    )
     error, seconds, samples = summary["cycles"]
-    print(f"  Against Cycles ({samples} samples, {seconds:.1f} s): {100.0 * error:.1f} % relative RMSE of "
-          "luminance per vertex (the SH band limit and Cycles' own noise; docs/accuracy.md)")
+    print(
+        f"  Against Cycles ({samples} samples, {seconds:.1f} s): {100.0 * error:.1f} % relative RMSE of "
+        "luminance per vertex (the SH band limit and Cycles' own noise; docs/accuracy.md)"
+    )
     paths, seconds = summary["renders"]
-    print(f"  Pictures ({len(paths)} lighting rotations, {seconds:.2f} s): "
-          + ", ".join(shown(p) for p in paths))
+    print(f"  Pictures ({len(paths)} lighting rotations, {seconds:.2f} s): " + ", ".join(shown(p) for p in paths))
     print(f"  Blender file: {shown(summary['blend'])} (open it and rotate the HDRI in the PRT tab)")
     print(f"  World projected in {summary['project'][1] * 1e3:.0f} ms ({summary['project'][0].lower()})")
 
@@ -232,8 +238,10 @@ def main(argv=None):
     path = bundled_hdri_path(args.hdri)
     image = bpy.data.images.load(path, check_existing=True)
     pixels = read_pixels(image)
-    print(f"HDRI {os.path.basename(path)}: {image.size[0]}x{image.size[1]}, peak {pixels[..., :3].max():.4g}, "
-          f"mean {pixels[..., :3].mean():.4g}\n")
+    print(
+        f"HDRI {os.path.basename(path)}: {image.size[0]}x{image.size[1]}, peak {pixels[..., :3].max():.4g}, "
+        f"mean {pixels[..., :3].mean():.4g}\n"
+    )
     coeffs = projection_table(pixels, [int(o) for o in args.orders.split(",")])
     if 3 in coeffs:
         print("\nRGB coefficients at order 3 (index i = l(l+1)+m, no Condon-Shortley phase, Z up):")

@@ -40,7 +40,7 @@ CHECKS = (
     "no Python traceback in Blender's output",
 )
 
-argv = sys.argv[sys.argv.index("--") + 1:]
+argv = sys.argv[sys.argv.index("--") + 1 :]
 ZIP, RESULT = argv[0], argv[1]
 MODULE = "bl_ext.user_default.prt_lighting"
 result = {"blender": bpy.app.version_string, "python": sys.version.split()[0], "log": []}
@@ -100,8 +100,9 @@ def install():
     except ImportError as e:
         raise SetupError(f"Blender's Python has no numpy: {e}") from e
     try:
-        result["install"] = list(bpy.ops.extensions.package_install_files(
-            filepath=ZIP, repo="user_default", enable_on_install=True))
+        result["install"] = list(
+            bpy.ops.extensions.package_install_files(filepath=ZIP, repo="user_default", enable_on_install=True)
+        )
     except Exception as e:  # noqa: BLE001  (an operator's error report arrives as RuntimeError)
         raise SetupError(f"installing {os.path.basename(ZIP)} failed: {e}".strip()) from e
     if result["install"] != ["FINISHED"]:
@@ -153,8 +154,12 @@ def setup():
         result["binding_origin"] = lib.origin
 
         class DlInfo(ctypes.Structure):
-            _fields_ = [("fname", ctypes.c_char_p), ("fbase", ctypes.c_void_p),
-                        ("sname", ctypes.c_char_p), ("saddr", ctypes.c_void_p)]
+            _fields_ = [
+                ("fname", ctypes.c_char_p),
+                ("fbase", ctypes.c_void_p),
+                ("sname", ctypes.c_char_p),
+                ("saddr", ctypes.c_void_p),
+            ]
 
         info = DlInfo()
         address = ctypes.cast(lib.rtcGetSceneDevice, ctypes.c_void_p).value
@@ -349,19 +354,22 @@ def verdict():
         and bool(r.get("shared_vs_copied_equal")),
         "invoke() starts a modal bake": r.get("invoke") == ["RUNNING_MODAL"],
         "the modal bake finishes with Embree": bool(r.get("report", {}).get("ok"))
-        and r.get("report", {}).get("backend") == "EMBREE" and len(bake_attrs) == 4
-        and bool(r.get("after_bake")) and all(mesh["record"] is not None for mesh in r["after_bake"].values()),
+        and r.get("report", {}).get("backend") == "EMBREE"
+        and len(bake_attrs) == 4
+        and bool(r.get("after_bake"))
+        and all(mesh["record"] is not None for mesh in r["after_bake"].values()),
         "no worker thread left after the bake": r.get("threads_after_bake") == [],
         "one undo removes the whole bake": same(r.get("after_undo"), r.get("before"))
         and same(r.get("undo"), ["FINISHED"]),
         "redo brings it back unchanged": same(r.get("after_redo"), r.get("after_bake"))
         and same(r.get("redo"), ["FINISHED"]),
-        "the world projects and the display draws both baked objects":
-            r.get("project") == ["FINISHED"] and bool(r.get("display_handler"))
-            and r.get("display_meshes_drawn") == 2 and r.get("rotate") == ["FINISHED"],
+        "the world projects and the display draws both baked objects": r.get("project") == ["FINISHED"]
+        and bool(r.get("display_handler"))
+        and r.get("display_meshes_drawn") == 2
+        and r.get("rotate") == ["FINISHED"],
         "the sidebar's PRT tab draws": r.get("sidebar_tab") == "PRT",
-        "progress advances between timer events (the UI runs)":
-            len(long_samples) >= 3 and all(a < b for a, b in zip(long_samples, long_samples[1:])),
+        "progress advances between timer events (the UI runs)": len(long_samples) >= 3
+        and all(a < b for a, b in zip(long_samples, long_samples[1:])),
         "Esc cancels within 1 s": bool(r.get("cancel_report", {}).get("cancelled"))
         and r.get("cancel_seconds_after_esc", 99) < 1.0,
         "a cancelled bake leaves the attributes as they were": same(r.get("after_cancel"), r.get("after_bake")),

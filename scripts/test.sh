@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The whole test suite in the project's own environment (created on first use): ruff's lint first
-# (style fails fast), then pytest. Extra arguments go to pytest, e.g.
+# The whole test suite in the project's own environment (created on first use): ruff's lint and
+# format check first (style fails fast), then pytest. Extra arguments go to pytest, e.g.
 # `bash scripts/test.sh tests/test_sh.py -k poles`, or the fast lane without Cycles and the GPU:
 # `bash scripts/test.sh -m "not cycles and not gpu"`.
 set -euo pipefail
@@ -8,4 +8,5 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 bash "$root/scripts/setup_venv.sh"
 cd "$root"
 "$root/.venv/bin/ruff" check --quiet .
+"$root/.venv/bin/ruff" format --check --quiet .
 exec "$root/.venv/bin/python" -m pytest "$@"

@@ -90,9 +90,13 @@ def use_it(result, api):
     top = int(np.argmax([v.co.z for v in sphere.data.vertices]))
     bottom = int(np.argmin([v.co.z for v in sphere.data.vertices]))
     result["shade"] = {
-        "shape": list(radiance.shape), "finite": bool(np.isfinite(radiance).all()),
-        "min": float(radiance.min()), "max": float(radiance.max()), "mean": float(radiance.mean()),
-        "top": radiance[top].tolist(), "bottom": radiance[bottom].tolist(),
+        "shape": list(radiance.shape),
+        "finite": bool(np.isfinite(radiance).all()),
+        "min": float(radiance.min()),
+        "max": float(radiance.max()),
+        "mean": float(radiance.mean()),
+        "top": radiance[top].tolist(),
+        "bottom": radiance[bottom].tolist(),
     }
     result["rotate"] = list(bpy.ops.prt.set_light_rotation(rotation=(0.0, 0.0, 1.5)))
     rotated = api.shade(sphere)
@@ -110,7 +114,9 @@ def main(zip_path, result_path, mode="embree"):
         sys.modules["embreex"] = None  # `import embreex` now raises ImportError
     result = {"mode": mode}
     repos = [r.module for r in bpy.context.preferences.extensions.repos]
-    result["install"] = list(bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default", enable_on_install=True))
+    result["install"] = list(
+        bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default", enable_on_install=True)
+    )
     result["enabled"] = list(addon_utils.check(MODULE))
     site = os.path.join(bpy.utils.user_resource("EXTENSIONS"), ".local", "lib", "python3.11", "site-packages")
     result["bundled_embreex"] = os.path.isdir(os.path.join(site, "embreex"))
@@ -130,14 +136,19 @@ def main(zip_path, result_path, mode="embree"):
     result["disable"] = list(bpy.ops.preferences.addon_disable(module=MODULE))
     result["scene_property_after_disable"] = hasattr(bpy.types.Scene, "prt")
     result["panel_after_disable"] = hasattr(bpy.types, "VIEW3D_PT_prt")
-    result["operators_after_disable"] = [n for n in ("project_world", "bake_transfer", "set_light_rotation")
-                                         if hasattr(bpy.types, f"PRT_OT_{n}")]
+    result["operators_after_disable"] = [
+        n for n in ("project_world", "bake_transfer", "set_light_rotation") if hasattr(bpy.types, f"PRT_OT_{n}")
+    ]
     result["handlers_after_disable"] = our_handlers()
     result["timers_after_disable"] = registered_timers(funcs)
     result["draw_handler_after_disable"] = display.draw_handle() is not None
     result["running_bakes_after_disable"] = len(bake_ops._running)
-    result["uninstall"] = list(bpy.ops.extensions.package_uninstall(repo_index=repos.index("user_default"), pkg_id="prt_lighting"))
-    result["files_left"] = os.path.exists(os.path.join(bpy.utils.user_resource("EXTENSIONS"), "user_default", "prt_lighting"))
+    result["uninstall"] = list(
+        bpy.ops.extensions.package_uninstall(repo_index=repos.index("user_default"), pkg_id="prt_lighting")
+    )
+    result["files_left"] = os.path.exists(
+        os.path.join(bpy.utils.user_resource("EXTENSIONS"), "user_default", "prt_lighting")
+    )
     with open(result_path, "w") as f:
         json.dump(result, f, indent=1)
 

@@ -40,8 +40,14 @@ def _idprops(owner):
 
 
 def _attribute_values(attr):
-    key = {"FLOAT_COLOR": "color", "BYTE_COLOR": "color", "FLOAT_VECTOR": "vector",
-           "FLOAT": "value", "INT": "value", "BOOLEAN": "value"}.get(attr.data_type)
+    key = {
+        "FLOAT_COLOR": "color",
+        "BYTE_COLOR": "color",
+        "FLOAT_VECTOR": "vector",
+        "FLOAT": "value",
+        "INT": "value",
+        "BOOLEAN": "value",
+    }.get(attr.data_type)
     if key is None or len(attr.data) == 0:
         return None
     width = {"color": 4, "vector": 3, "value": 1}[key]
@@ -65,15 +71,21 @@ def snapshot(bpy):
     for mesh in bpy.data.meshes:
         attrs = []
         for attr in mesh.attributes:
-            attrs.append((attr.name, attr.domain, attr.data_type,
-                          _attribute_values(mesh.attributes[attr.name])))
+            attrs.append((attr.name, attr.domain, attr.data_type, _attribute_values(mesh.attributes[attr.name])))
         snap[f"mesh:{mesh.name}:{mesh.library}"] = (
-            sorted(attrs, key=lambda a: a[0]), _idprops(mesh), mesh.color_attributes.active_color_name,
+            sorted(attrs, key=lambda a: a[0]),
+            _idprops(mesh),
+            mesh.color_attributes.active_color_name,
         )
     for obj in bpy.data.objects:
         snap[f"object:{obj.name}:{obj.library}"] = (
-            tuple(tuple(row) for row in obj.matrix_world), obj.select_get(), obj.hide_get(),
-            obj.hide_viewport, obj.data.name if obj.data else None, obj.mode, _idprops(obj),
+            tuple(tuple(row) for row in obj.matrix_world),
+            obj.select_get(),
+            obj.hide_get(),
+            obj.hide_viewport,
+            obj.data.name if obj.data else None,
+            obj.mode,
+            _idprops(obj),
         )
     view_layer = bpy.context.view_layer
     snap["active"] = view_layer.objects.active.name if view_layer.objects.active else None
@@ -84,19 +96,38 @@ def snapshot(bpy):
         nodes = []
         if tree is not None:
             for node in tree.nodes:
-                nodes.append((node.name, node.bl_idname, node.mute,
-                              getattr(getattr(node, "image", None), "name", None),
-                              tuple((s.identifier, _socket_value(s)) for s in node.inputs)))
-            links = sorted((l.from_node.name, l.from_socket.identifier, l.to_node.name, l.to_socket.identifier)
-                           for l in tree.links)
+                nodes.append(
+                    (
+                        node.name,
+                        node.bl_idname,
+                        node.mute,
+                        getattr(getattr(node, "image", None), "name", None),
+                        tuple((s.identifier, _socket_value(s)) for s in node.inputs),
+                    )
+                )
+            links = sorted(
+                (l.from_node.name, l.from_socket.identifier, l.to_node.name, l.to_socket.identifier) for l in tree.links
+            )
         else:
             links = []
         snap[f"world:{world.name}"] = (sorted(nodes, key=repr), links, tuple(world.color), _idprops(world))
     for image in bpy.data.images:
         snap[f"image:{image.name}"] = (image.filepath, image.source, tuple(image.size))
-    snap["counts"] = {name: len(getattr(bpy.data, name)) for name in
-                      ("objects", "meshes", "images", "worlds", "materials", "node_groups", "scenes",
-                       "libraries", "curves", "collections")}
+    snap["counts"] = {
+        name: len(getattr(bpy.data, name))
+        for name in (
+            "objects",
+            "meshes",
+            "images",
+            "worlds",
+            "materials",
+            "node_groups",
+            "scenes",
+            "libraries",
+            "curves",
+            "collections",
+        )
+    }
     return snap
 
 
@@ -308,8 +339,11 @@ def test_edit_mode(bpy_module, scene):
 def test_bake_order_out_of_range(bpy_module, scene, order):
     from prt_addon import api
 
-    refused(bpy_module, lambda: api.bake([scene.sphere], order=order),
-            rf"order must be an integer from 1 to 16, got {order}")
+    refused(
+        bpy_module,
+        lambda: api.bake([scene.sphere], order=order),
+        rf"order must be an integer from 1 to 16, got {order}",
+    )
     # The sidebar cannot even hold such a value: Blender clamps it to the property's range.
     scene.scene.prt_bake.order = order
     assert 1 <= scene.scene.prt_bake.order <= 16
@@ -351,8 +385,9 @@ def _start_modal(bpy, scene_ns, monkeypatch):
 
     monkeypatch.setattr(bake_runner, "TIME_SLICE", 0.0)
     monkeypatch.setattr(bake_runner, "TIMER_GAP", 0.0)
-    job = bake_job.BakeJob([scene_ns.sphere, scene_ns.ground],
-                           bake_settings.BakeSettings(order=4, samples=256, chunk_rays=2048))
+    job = bake_job.BakeJob(
+        [scene_ns.sphere, scene_ns.ground], bake_settings.BakeSettings(order=4, samples=256, chunk_rays=2048)
+    )
     op = ModalStandIn(bake_op, job)
     bake_runner._running.add(op)  # what invoke() does
     assert op.modal(bpy.context, _timer_event()) == {"RUNNING_MODAL"}
@@ -387,15 +422,15 @@ def test_invoke_failing_after_the_job_starts_stops_it(bpy_module, scene, monkeyp
         pass
 
     monkeypatch.setattr(bake_runner, "bpy", WithWindow())
-    job = bake_job.BakeJob([scene.sphere, scene.ground],
-                           bake_settings.BakeSettings(order=4, samples=256, chunk_rays=2048))
+    job = bake_job.BakeJob(
+        [scene.sphere, scene.ground], bake_settings.BakeSettings(order=4, samples=256, chunk_rays=2048)
+    )
     assert job.plans[0].computation._pending, "the first object's slices should be queued"
     op = Operator()
     cls = bake_op.PRT_OT_bake_transfer
     op._job = lambda context: job
     op._cleanup = lambda context: cls._cleanup(op, context)
-    context = types.SimpleNamespace(window=object(), window_manager=WindowManager(), workspace=None,
-                                    screen=None)
+    context = types.SimpleNamespace(window=object(), window_manager=WindowManager(), workspace=None, screen=None)
     before = snapshot(bpy)
     with pytest.raises(RuntimeError, match="no timer"):
         cls.invoke(op, context, None)
@@ -406,6 +441,7 @@ def test_invoke_failing_after_the_job_starts_stops_it(bpy_module, scene, monkeyp
 
 def test_bake_while_another_bake_runs(bpy_module, scene, monkeypatch):
     from prt_addon.blender.bake import runner as bake_runner
+
     bpy = bpy_module
     before = snapshot(bpy)
     bake_ops, op = _start_modal(bpy, scene, monkeypatch)
@@ -438,8 +474,10 @@ def test_topology_change_during_modal_bake(bpy_module, scene, monkeypatch):
     while result == {"RUNNING_MODAL"}:
         result = op.modal(bpy.context, _timer_event())
     assert result == {"CANCELLED"}
-    assert any("ERROR" in kind and "topology of 'Sphere' changed during the bake: bake again" in msg
-               for kind, msg in op.reports), op.reports
+    assert any(
+        "ERROR" in kind and "topology of 'Sphere' changed during the bake: bake again" in msg
+        for kind, msg in op.reports
+    ), op.reports
     assert_unchanged(before, snapshot(bpy))
     assert not bake_runner._running
 
@@ -448,6 +486,7 @@ def test_unregister_in_the_middle_of_a_modal_bake(bpy_module, scene, monkeypatch
     from prt_addon.blender.bake import job as bake_job
     from prt_addon.blender.bake import runner as bake_runner
     from prt_addon.blender.bake import settings as bake_settings
+
     bpy = bpy_module
     import prt_addon
 
@@ -540,14 +579,19 @@ def test_world_order_out_of_range(bpy_module, scene, order):
     from prt_addon import api
 
     # order 1000 would need 10^6 coefficients per channel: refused before any work.
-    refused(bpy_module, lambda: api.project_world(order=order), r"order must be an integer .*got 0|from 1 to 32, got 1000")
+    refused(
+        bpy_module, lambda: api.project_world(order=order), r"order must be an integer .*got 0|from 1 to 32, got 1000"
+    )
 
 
 def test_rotate_lighting_without_environment_texture(bpy_module, scene):
     tree = scene.world.node_tree
     tree.nodes.remove(scene.env)
-    refused(bpy_module, lambda: bpy_module.ops.prt.set_light_rotation(),
-            r"poll\(\) The world has no Environment Texture to rotate")
+    refused(
+        bpy_module,
+        lambda: bpy_module.ops.prt.set_light_rotation(),
+        r"poll\(\) The world has no Environment Texture to rotate",
+    )
 
 
 # --- display ----------------------------------------------------------------------------------

@@ -60,6 +60,7 @@ def _scale_scene(bpy, factor):
 
 def test_operator_bakes_selection_and_writes_storage(empty_scene, bpy_module, mesh_io):
     from prt_addon.blender import storage
+
     bpy = bpy_module
     ground, monkey = _monkey_on_ground(bpy)
     for obj in (ground, monkey):
@@ -105,6 +106,7 @@ def test_loose_vertices_do_not_fool_the_per_vertex_shortcut(empty_scene, bpy_mod
     vertices: 6 (vertex, normal) pairs for 6 vertices, but not one normal per vertex. It must bake
     per corner, each corner holding the clamped cosine of its own face's normal."""
     from prt_addon.blender import storage
+
     bpy = bpy_module
     mesh = bpy.data.meshes.new("fold")
     verts = [(0, 0, 0), (1, 0, 0), (0.5, 1, 0), (0.5, -1, 0.8), (5, 5, 5), (6, 5, 5)]
@@ -118,8 +120,9 @@ def test_loose_vertices_do_not_fool_the_per_vertex_shortcut(empty_scene, bpy_mod
     assert mesh["prt_bake"]["domain"] == "CORNER"
     values = storage.read_transfer(mesh)
     face_normals = np.array([p.normal for p in mesh.polygons])
-    expected = np.array([analytic.clamped_cosine_coeffs(2, face_normals[p.index])
-                         for p in mesh.polygons for _ in p.loop_indices])
+    expected = np.array(
+        [analytic.clamped_cosine_coeffs(2, face_normals[p.index]) for p in mesh.polygons for _ in p.loop_indices]
+    )
     np.testing.assert_allclose(values, expected, atol=2e-2)
 
 
@@ -128,9 +131,9 @@ def test_unoccluded_vertex_is_clamped_cosine_in_local_frame(empty_scene, bpy_mod
     local normal (the local frame undoes the object's rotation and scale)."""
     from prt_addon.blender import mesh_read
     from prt_addon.blender import storage
+
     bpy = bpy_module
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=12, ring_count=6, rotation=(0.3, 0.5, 0.7),
-                                         scale=(1, 2, 0.5))
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=12, ring_count=6, rotation=(0.3, 0.5, 0.7), scale=(1, 2, 0.5))
     sphere = bpy.context.object
     sphere.data.shade_smooth()
     from prt_addon import api
@@ -152,6 +155,7 @@ def test_unoccluded_vertex_is_clamped_cosine_in_local_frame(empty_scene, bpy_mod
 
 def test_coarse_smooth_mesh_does_not_shadow_itself(empty_scene, bpy_module, mesh_io):
     from prt_addon.blender import storage
+
     bpy = bpy_module
     bpy.ops.mesh.primitive_uv_sphere_add(segments=8, ring_count=4)
     sphere = bpy.context.object
@@ -201,7 +205,6 @@ def test_embree_and_bvhtree_agree_on_the_same_rays(empty_scene, bpy_module, bake
     # And whole bakes agree.
     from prt_addon import api
 
-
     from prt_addon.blender import storage
 
     r1 = api.bake([monkey], order=3, samples=64, backend="EMBREE")
@@ -213,12 +216,12 @@ def test_embree_and_bvhtree_agree_on_the_same_rays(empty_scene, bpy_module, bake
     assert np.mean(np.abs(a - b)) < 1e-3
 
 
-def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, bpy_module, bake_ops,
-                                                                  monkeypatch):
+def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, bpy_module, bake_ops, monkeypatch):
     from prt_addon.blender.bake import runner as bake_runner
     from prt_addon.blender.bake import job as bake_job
     from prt_addon.blender.bake import reports as bake_reports
     from prt_addon.blender.bake import settings as bake_settings
+
     monkeypatch.setattr(bake_runner, "TIME_SLICE", 0.0)  # one chunk per timer event
     monkeypatch.setattr(bake_runner, "TIMER_GAP", 0.0)  # (tested on its own below)
     bpy = bpy_module
@@ -254,6 +257,7 @@ def test_timer_events_right_after_a_slice_do_no_work(empty_scene, bpy_module, ba
     from prt_addon.blender.bake import job as bake_job
     from prt_addon.blender.bake import runner as bake_runner
     from prt_addon.blender.bake import settings as bake_settings
+
     monkeypatch.setattr(bake_runner, "TIME_SLICE", 0.0)
     bpy = bpy_module
     ground, monkey = _monkey_on_ground(bpy)
@@ -279,6 +283,7 @@ def test_scene_bvh_is_built_only_when_a_ray_can_be_traced(empty_scene, bpy_modul
     hers is built. A job closed before its first step leaves no worker thread behind."""
     from prt_addon.blender.bake import job as bake_job
     from prt_addon.blender.bake import settings as bake_settings
+
     bpy = bpy_module
     bpy.ops.mesh.primitive_uv_sphere_add(segments=16, ring_count=8)
     sphere = bpy.context.object
@@ -300,14 +305,14 @@ def test_scene_bvh_is_built_only_when_a_ray_can_be_traced(empty_scene, bpy_modul
     assert job._pool._shutdown and all(not t.is_alive() for t in job._pool._threads)
 
 
-def test_first_object_traces_while_the_others_are_prepared(empty_scene, bpy_module, bake_ops, mesh_io,
-                                                          monkeypatch):
+def test_first_object_traces_while_the_others_are_prepared(empty_scene, bpy_module, bake_ops, mesh_io, monkeypatch):
     """The job queues the first object's slices as soon as its points are ready: one of them is
     traced while the second object's points are still being read. A failure there stops them and
     leaves no thread behind."""
     from prt_addon.blender.bake import job as bake_job
     from prt_addon.blender.bake import settings as bake_settings
     from prt_addon.blender import mesh_read
+
     bpy = bpy_module
     ground, monkey = _monkey_on_ground(bpy)
     started, seen = [], []
@@ -341,8 +346,9 @@ def test_first_object_traces_while_the_others_are_prepared(empty_scene, bpy_modu
     monkeypatch.setattr(mesh_read, "bake_points", failing_points)
     before = {o.name: _attr_bytes(o.data) for o in (ground, monkey)}
     pools = []
-    monkeypatch.setattr(bake_job, "ThreadPoolExecutor",
-                        lambda *a, **k: pools.append(ThreadPoolExecutor(*a, **k)) or pools[-1])
+    monkeypatch.setattr(
+        bake_job, "ThreadPoolExecutor", lambda *a, **k: pools.append(ThreadPoolExecutor(*a, **k)) or pools[-1]
+    )
     with pytest.raises(RuntimeError, match="injected"):
         bake_job.BakeJob([monkey, ground], settings)
     assert started and pools[0]._shutdown and all(not t.is_alive() for t in pools[0]._threads)
@@ -352,6 +358,7 @@ def test_first_object_traces_while_the_others_are_prepared(empty_scene, bpy_modu
 def test_failing_bake_leaves_attributes_untouched(empty_scene, bpy_module, bake_ops, mesh_io, monkeypatch):
     from prt_addon.blender.bake import reports as bake_reports
     from prt_addon.blender import storage
+
     bpy = bpy_module
     ground, monkey = _monkey_on_ground(bpy)
     from prt_addon import api
@@ -471,6 +478,7 @@ def test_removed_or_converted_transfer_attribute_is_reported(empty_scene, bpy_mo
 
 def _scene_values(bpy, mesh_io, factor):
     from prt_addon.blender import storage
+
     bpy.ops.wm.read_factory_settings(use_empty=True)
     ground, monkey = _monkey_on_ground(bpy, ground_cuts=6)
     if factor != 1.0:
@@ -497,6 +505,7 @@ def test_scene_scale_does_not_change_the_result(empty_scene, bpy_module, mesh_io
 
 def test_bad_inputs_give_clear_reports(empty_scene, bpy_module, bake_ops):
     from prt_addon.blender.bake import reports as bake_reports
+
     bpy = bpy_module
     from prt_addon import api
 
@@ -588,6 +597,7 @@ def test_bake_set_up_leaves_no_blas_thread_spinning(empty_scene, bpy_module, bak
     threads, whose spinning would take a core from the tracing threads (core.serial_blas)."""
     from prt_addon.blender.bake import job as bake_job
     from prt_addon.blender.bake import settings as bake_settings
+
     bpy = bpy_module
     bpy.ops.mesh.primitive_monkey_add(rotation=(0.3, 0.2, 0.1), scale=(1, 2, 3))
     monkey = bpy.context.object

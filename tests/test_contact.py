@@ -34,8 +34,9 @@ embree = pytest.mark.skipif(not raytrace.EMBREE_AVAILABLE, reason="embreex not i
 def grid_mesh(nx, ny, corner, u, v):
     """A grid of nx x ny quads (two triangles each) spanning corner + [0, 1] u + [0, 1] v."""
     s, t = np.meshgrid(np.linspace(0, 1, nx + 1), np.linspace(0, 1, ny + 1))
-    verts = (np.asarray(corner, float) + s.reshape(-1, 1) * np.asarray(u, float)
-             + t.reshape(-1, 1) * np.asarray(v, float))
+    verts = (
+        np.asarray(corner, float) + s.reshape(-1, 1) * np.asarray(u, float) + t.reshape(-1, 1) * np.asarray(v, float)
+    )
     idx = np.arange((nx + 1) * (ny + 1)).reshape(ny + 1, nx + 1)
     a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
     c, d = idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
@@ -84,12 +85,12 @@ def test_inward_tangent_of_a_flat_box_side_ignores_the_bottom_face():
     verts, tris = merged(side, bottom)
     verts, weld = np.unique(np.round(verts, 9), axis=0, return_inverse=True)  # one mesh
     tris = weld.ravel()[tris]
-    edge = np.flatnonzero((np.abs(verts[:, 0] - 1) < 1e-9) & (np.abs(verts[:, 2]) < 1e-9)
-                          & (verts[:, 1] > 0.01) & (verts[:, 1] < 0.99))
+    edge = np.flatnonzero(
+        (np.abs(verts[:, 0] - 1) < 1e-9) & (np.abs(verts[:, 2]) < 1e-9) & (verts[:, 1] > 0.01) & (verts[:, 1] < 0.99)
+    )
     # Each edge vertex of a flat-shaded box has two corner normals: two points.
     points = np.concatenate([verts[edge], verts[edge]])
-    normals = np.concatenate([np.tile([1.0, 0, 0], (len(edge), 1)),
-                              np.tile([0, 0, -1.0], (len(edge), 1))])
+    normals = np.concatenate([np.tile([1.0, 0, 0], (len(edge), 1)), np.tile([0, 0, -1.0], (len(edge), 1))])
     u = transfer.inward_tangents(points, normals, verts, tris, np.concatenate([edge, edge]))
     k = len(edge)
     assert np.allclose(u[:k], [0, 0, 1.0], atol=1e-6)  # side point: up the side
@@ -103,8 +104,7 @@ def test_inward_tangents_validate_their_input():
         transfer.inward_tangents(verts[:2], normals[:2], verts, tris, [0])
     with pytest.raises(ValueError):
         transfer.inward_tangents(verts[:1], normals[:1], verts, tris, [len(verts)])
-    assert np.array_equal(transfer.inward_tangents(verts, normals, verts, tris[:0]),
-                          np.zeros((len(verts), 3)))
+    assert np.array_equal(transfer.inward_tangents(verts, normals, verts, tris[:0]), np.zeros((len(verts), 3)))
 
 
 def wall_on_floor():
@@ -132,8 +132,8 @@ def test_wall_on_floor_bottom_row_sees_only_the_upper_half(contact):
     normals = np.tile([1.0, 0.0, 0.0], (len(wv), 1))
     kwargs = {"surface": (wv, wt)} if contact else {}
     result = transfer.TransferComputation(
-        wv, normals, directions.make_directions("FIBONACCI", DIRECTIONS, 0), 1, occluder,
-        offset=1e-4 * 2.3, **kwargs).run()
+        wv, normals, directions.make_directions("FIBONACCI", DIRECTIONS, 0), 1, occluder, offset=1e-4 * 2.3, **kwargs
+    ).run()
     radiance = unit_world_radiance(result)
     bottom = radiance[np.abs(wv[:, 2]) < 1e-9].mean()
     above = radiance[np.abs(wv[:, 2] - 0.125) < 1e-9].mean()
@@ -151,8 +151,8 @@ def test_origins_move_by_offset_along_the_normal_and_at_most_offset_along_the_su
     normals = np.tile([1.0, 0.0, 0.0], (len(wv), 1))
     offset = 1e-3
     comp = transfer.TransferComputation(
-        wv, normals, directions.make_directions("FIBONACCI", 16, 0), 1, None, offset=offset,
-        surface=(wv, wt))
+        wv, normals, directions.make_directions("FIBONACCI", 16, 0), 1, None, offset=offset, surface=(wv, wt)
+    )
     moved = transfer._xyz(comp.origins16).astype(np.float64) - wv
     assert np.allclose(moved[:, 0], offset, rtol=1e-4)
     assert np.all(np.linalg.norm(moved[:, 1:], axis=1) <= offset * (1 + 1e-4))
@@ -178,8 +178,7 @@ def test_no_contact_results_unchanged_within_noise():
     occluder = raytrace.EmbreeOccluder(verts, tris)
     dirs = directions.make_directions("FIBONACCI", 256, 0)
     old = transfer.TransferComputation(verts, normals, dirs, 3, occluder, offset=2.8e-4).run()
-    new = transfer.TransferComputation(verts, normals, dirs, 3, occluder, offset=2.8e-4,
-                                       surface=(verts, tris)).run()
+    new = transfer.TransferComputation(verts, normals, dirs, 3, occluder, offset=2.8e-4, surface=(verts, tris)).run()
     diff = np.abs(new.coeffs - old.coeffs).mean()
     print(f"mean |difference| {diff:.2e}, error estimate {old.error_rms():.2e}")
     assert diff < 0.05 * old.error_rms()
@@ -214,14 +213,14 @@ def _add(bpy, scene, name, build, location=(0.0, 0.0, 0.0)):
 
 
 def _grid(size, cuts):
-    return lambda bmesh, bm: bmesh.ops.create_grid(bm, x_segments=cuts, y_segments=cuts,
-                                                   size=size / 2)
+    return lambda bmesh, bm: bmesh.ops.create_grid(bm, x_segments=cuts, y_segments=cuts, size=size / 2)
 
 
 def _box(size, cuts):
     def build(bmesh, bm):
         bmesh.ops.create_cube(bm, size=size)
         bmesh.ops.subdivide_edges(bm, edges=bm.edges[:], cuts=cuts, use_grid_fill=True)
+
     return build
 
 
@@ -231,6 +230,7 @@ def _wall(width, height, cuts):
         for v in bm.verts:  # the grid's (x, y) in [-1/2, 1/2] -> (0, x w, (y + 1/2) h): faces +x
             x, y, _z = v.co
             v.co = (0.0, x * width, (y + 0.5) * height)
+
     return build
 
 
@@ -263,8 +263,7 @@ def _cycles(bpy, scene, obj):
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
     scene.cycles.samples = SAMPLES
-    bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT"}, target="VERTEX_COLORS",
-                        use_clear=True)
+    bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT"}, target="VERTEX_COLORS", use_clear=True)
     out = np.empty(len(mesh.loops) * 4, np.float32)
     mesh.color_attributes["bake"].data.foreach_get("color", out)
     return out.reshape(-1, 4)[:, :3].mean(axis=1).astype(np.float64)
@@ -286,8 +285,7 @@ def _prt(objs, target, occluder_kind="EMBREE"):
     dirs = directions.make_directions("FIBONACCI", DIRECTIONS, 0)
     out = []
     for extra in ({"surface": (v, t), "point_vertex": corner_verts}, {}):
-        result = transfer.TransferComputation(v[corner_verts], n, dirs, 1, occluder,
-                                              offset=offset, **extra).run()
+        result = transfer.TransferComputation(v[corner_verts], n, dirs, 1, occluder, offset=offset, **extra).run()
         out.append(unit_world_radiance(result))
     return out[0], out[1], v[corner_verts], n
 
@@ -354,8 +352,7 @@ def test_box_hovering_above_the_ground_not_darkened(empty_scene, bpy_module):
     box = _add(bpy, scene, "box", _box(1.0, 3), (0.0, 0.0, 0.51))
     cycles = _cycles(bpy, scene, box)
     new, old, pos, normals = _prt([box, ground], 0)
-    rc, rn, _ro = _compare("hovering side z", cycles, new, old, pos[:, 2],
-                           np.abs(normals[:, 2]) < 0.5)
+    rc, rn, _ro = _compare("hovering side z", cycles, new, old, pos[:, 2], np.abs(normals[:, 2]) < 0.5)
     _assert_rows_agree(rc, rn)
     bottom = normals[:, 2] < -0.5  # facing the ground 0.01 below: dark in both
     assert new[bottom].mean() < 0.01 and cycles[bottom].mean() < 0.01
@@ -396,8 +393,15 @@ def test_bvhtree_backend_gets_the_same_contact_fix(empty_scene, bpy_module):
     new_e, old_e, pos, _n = _prt([wall, floor], 0, "EMBREE")
     new_b, old_b, _p, _n = _prt([wall, floor], 0, "BVHTREE")
     bottom = np.abs(pos[:, 2]) < 1e-9
-    print("bottom row: embree", new_e[bottom].mean(), "bvhtree", new_b[bottom].mean(),
-          "before", old_e[bottom].mean(), old_b[bottom].mean())
+    print(
+        "bottom row: embree",
+        new_e[bottom].mean(),
+        "bvhtree",
+        new_b[bottom].mean(),
+        "before",
+        old_e[bottom].mean(),
+        old_b[bottom].mean(),
+    )
     assert abs(new_b[bottom].mean() - 0.5) < 0.015
     assert np.abs(new_b - new_e).max() < 0.01
 

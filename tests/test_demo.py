@@ -15,9 +15,21 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 @pytest.mark.gpu
 def test_demo_projects_bakes_renders_and_saves(tmp_path):
     run = subprocess.run(
-        [sys.executable, os.path.join(ROOT, "scripts", "demo.py"), "--orders", "2,3,8", "--order", "4",
-         "--samples", "64", "--output", str(tmp_path)],
-        capture_output=True, text=True, timeout=600,
+        [
+            sys.executable,
+            os.path.join(ROOT, "scripts", "demo.py"),
+            "--orders",
+            "2,3,8",
+            "--order",
+            "4",
+            "--samples",
+            "64",
+            "--output",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
     )
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
     out = run.stdout

@@ -305,9 +305,13 @@ def test_lighting_rotation_180_moves_bright_side(bpy_module, lit_scene):
     image_after = api.render_view(lit_scene, 256, 256)
     assert _bright_side(after, normals, (1, 0, 0)) < -0.5
     # The sphere is symmetric: the 180-degree rotation mirrors the shading x -> -x, y -> -y.
-    mirror = np.argmin(np.linalg.norm(normals[:, None, :2] + normals[None, :, :2], axis=2)
-                       + np.abs(normals[:, None, 2] - normals[None, :, 2]), axis=1)
+    mirror = np.argmin(
+        np.linalg.norm(normals[:, None, :2] + normals[None, :, :2], axis=2)
+        + np.abs(normals[:, None, 2] - normals[None, :, 2]),
+        axis=1,
+    )
     np.testing.assert_allclose(after, before[mirror], rtol=1e-4, atol=1e-4)
+
     # In the camera view (+X to the right) the bright half moves from right to left.
     def halves(img):
         lum = img[..., :3] @ np.array([0.2126, 0.7152, 0.0722])
@@ -563,7 +567,9 @@ def test_world_projection_seam(bpy_module, lit_scene):
     lighting.set_light_override(lit_scene, None)
     world_projection.project_and_store(lit_scene, 3)
     obj = bake_sphere(bpy_module, 3, segments=16, rings=8)
-    np.testing.assert_allclose(api.shade(obj, lit_scene), np.tile([0.3, 0.5, 0.7], (len(obj.data.vertices), 1)), rtol=1e-3)
+    np.testing.assert_allclose(
+        api.shade(obj, lit_scene), np.tile([0.3, 0.5, 0.7], (len(obj.data.vertices), 1)), rtol=1e-3
+    )
 
 
 def test_handler_removed_on_unregister_and_file_load(bpy_module, addon, gpu_ready, tmp_path):
@@ -584,7 +590,9 @@ def test_handler_removed_on_unregister_and_file_load(bpy_module, addon, gpu_read
     assert display_draw.draw_handle() is None
     assert not removable(handle)  # Blender no longer knows the callback
     for name in ("load_pre", "load_post", "depsgraph_update_post"):
-        assert not any(getattr(f, "__module__", "") == handlers.__name__ for f in getattr(bpy_module.app.handlers, name))
+        assert not any(
+            getattr(f, "__module__", "") == handlers.__name__ for f in getattr(bpy_module.app.handlers, name)
+        )
 
     prt_addon.register()
     first = display_draw.draw_handle()

@@ -14,7 +14,10 @@ def test_bake_scene_example_runs(tmp_path):
     png = tmp_path / "view.png"
     run = subprocess.run(
         [sys.executable, os.path.join(ROOT, "examples", "bake_scene.py"), "--samples", "64", "--png", str(png)],
-        capture_output=True, text=True, cwd=str(tmp_path), timeout=600,
+        capture_output=True,
+        text=True,
+        cwd=str(tmp_path),
+        timeout=600,
     )
     assert "Traceback" not in run.stderr, run.stderr
     assert "Baked 2 object(s)" in run.stdout and "lighting turned  90 deg" in run.stdout, run.stdout

@@ -106,8 +106,11 @@ def _from_gltf(values):
 
 
 def _user_state(bpy):
-    state = {"selected": sorted(o.name for o in bpy.context.view_layer.objects if o.select_get()),
-             "active": getattr(bpy.context.view_layer.objects.active, "name", None), "meshes": {}}
+    state = {
+        "selected": sorted(o.name for o in bpy.context.view_layer.objects if o.select_get()),
+        "active": getattr(bpy.context.view_layer.objects.active, "name", None),
+        "meshes": {},
+    }
     for mesh in bpy.data.meshes:
         attrs = {}
         for a in mesh.attributes:
@@ -118,8 +121,7 @@ def _user_state(bpy):
             else:
                 attrs[a.name] = (a.domain, a.data_type)
         colors = mesh.color_attributes
-        state["meshes"][mesh.name] = (attrs, colors.active_color_name, colors.default_color_name,
-                                      sorted(mesh.keys()))
+        state["meshes"][mesh.name] = (attrs, colors.active_color_name, colors.default_color_name, sorted(mesh.keys()))
     state["objects"] = sorted(o.name for o in bpy.data.objects)
     state["scene_keys"] = sorted(bpy.context.scene.keys())
     return state
@@ -274,8 +276,9 @@ def test_operator_and_menu(baked, bpy_module, tmp_path):
 def validator_modules():
     if shutil.which("npm") is None or shutil.which("node") is None:
         pytest.skip("npm and node are needed for the Khronos glTF validator (install Node.js)")
-    out = subprocess.run(["bash", os.path.join(ROOT, "scripts", "setup_node.sh")], check=True,
-                         capture_output=True, text=True)
+    out = subprocess.run(
+        ["bash", os.path.join(ROOT, "scripts", "setup_node.sh")], check=True, capture_output=True, text=True
+    )
     return out.stdout.strip().splitlines()[-1]
 
 
@@ -304,11 +307,13 @@ def _node_matrix(node):
     if "matrix" in node:
         return np.array(node["matrix"], dtype=np.float64).reshape(4, 4).T[:3, :3]
     x, y, z, w = node.get("rotation", [0.0, 0.0, 0.0, 1.0])
-    rot = np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
+    rot = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
     return rot @ np.diag(node.get("scale", [1.0, 1.0, 1.0]))
 
 
@@ -379,8 +384,17 @@ def test_basis_table_in_docs():
 
     d = np.array([[0.36, 0.48, 0.8]])
     x, y, z = d[0]
-    table = [0.282095, 0.488603 * y, 0.488603 * z, 0.488603 * x, 1.092548 * x * y, 1.092548 * y * z,
-             0.315392 * (3 * z * z - 1), 1.092548 * x * z, 0.546274 * (x * x - y * y)]
+    table = [
+        0.282095,
+        0.488603 * y,
+        0.488603 * z,
+        0.488603 * x,
+        1.092548 * x * y,
+        1.092548 * y * z,
+        0.315392 * (3 * z * z - 1),
+        1.092548 * x * z,
+        0.546274 * (x * x - y * y),
+    ]
     assert np.allclose(api.sh_basis(d, 3)[0], table, atol=2e-6)
 
 

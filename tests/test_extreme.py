@@ -44,8 +44,9 @@ def grid(n, size=1.0, z=0.0):
     x = np.linspace(-size, size, n)
     xx, yy = np.meshgrid(x, x, indexing="ij")
     verts = np.stack([xx.ravel(), yy.ravel(), np.full(n * n, z)], -1)
-    faces = [(i * n + j, (i + 1) * n + j, (i + 1) * n + j + 1, i * n + j + 1)
-             for i in range(n - 1) for j in range(n - 1)]
+    faces = [
+        (i * n + j, (i + 1) * n + j, (i + 1) * n + j + 1, i * n + j + 1) for i in range(n - 1) for j in range(n - 1)
+    ]
     return verts, faces
 
 
@@ -72,9 +73,14 @@ def test_order_one_and_largest_order(empty_scene, bpy_module, order):
     assert bake_settings.MAX_ORDER == 16
     plane = mesh_object(bpy, empty_scene, "plane", *grid(6, 2.0))
     box_v = [(x, y, z) for x in (-0.3, 0.3) for y in (-0.3, 0.3) for z in (0.5, 1.1)]
-    box = mesh_object(bpy, empty_scene, "box", box_v,
-                      [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)],
-                      smooth=False)
+    box = mesh_object(
+        bpy,
+        empty_scene,
+        "box",
+        box_v,
+        [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)],
+        smooth=False,
+    )
     report = api.bake([plane], order=order, samples=4096)
     assert report.ok and report.order == order
     assert plane.data["prt_bake"]["order"] == order
@@ -164,7 +170,7 @@ def test_nan_and_inf_vertex_coordinates_are_a_clear_report(empty_scene, bpy_modu
         bad = mesh_object(bpy, empty_scene, "bad", v, faces)
         report = api.bake([good, bad], order=3, samples=256)
         assert report.objects == [good.name]
-        (name, reason), = report.skipped
+        ((name, reason),) = report.skipped
         assert name == bad.name and "non-finite" in reason
         with pytest.raises(ValueError, match="non-finite"):
             api.bake([bad], order=3, samples=64)
@@ -185,9 +191,14 @@ def test_tiny_and_huge_meshes_match_unit_scale(empty_scene, bpy_module, scale):
         v, f = grid(9, 2.0)
         ground = mesh_object(bpy, empty_scene, "ground", np.array(v) * factor, f)
         box_v = np.array([(x, y, z) for x in (-0.4, 0.4) for y in (-0.4, 0.4) for z in (0.0, 0.8)]) * factor
-        box = mesh_object(bpy, empty_scene, "box", box_v,
-                          [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)],
-                          smooth=False)
+        box = mesh_object(
+            bpy,
+            empty_scene,
+            "box",
+            box_v,
+            [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)],
+            smooth=False,
+        )
         api.bake([ground, box], order=3, samples=512, seed=3)
         (r, rb) = shade_white(bpy, empty_scene, [ground, box], 3)
         return np.concatenate([r, rb])
@@ -238,9 +249,13 @@ def test_open_and_non_manifold_meshes(empty_scene, bpy_module):
     mesh.shade_smooth()
     bowl = bpy.data.objects.new("bowl", mesh)
     empty_scene.collection.objects.link(bowl)
-    fins = mesh_object(bpy, empty_scene, "fins",
-                       [(3, 0, 0), (3, 0, 1), (4, 0, 0), (2, 0, 0), (3, 1, 0)],
-                       [(0, 1, 2), (0, 1, 3), (0, 1, 4)])
+    fins = mesh_object(
+        bpy,
+        empty_scene,
+        "fins",
+        [(3, 0, 0), (3, 0, 1), (4, 0, 0), (2, 0, 0), (3, 1, 0)],
+        [(0, 1, 2), (0, 1, 3), (0, 1, 4)],
+    )
     report = api.bake([bowl, fins], order=4, samples=2048)
     assert report.ok and set(report.objects) == {"bowl", "fins"}
     r_bowl, r_fins = shade_white(bpy, empty_scene, [bowl, fins], 4)
@@ -377,6 +392,7 @@ def test_error_estimate_within_a_factor_of_two_on_a_reference_scene(empty_scene,
     def transfer():
         from prt_addon.blender.display import gpu_cache
         from prt_addon.blender import storage
+
         out = []
         for o in objs:
             info, _ = storage.usable_bake(o.data)

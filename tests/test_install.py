@@ -20,15 +20,23 @@ OTHER_BPY_VERSIONS = ["4.2.23", "4.5.15"]
 def python_for(version):
     if version == "current":
         return sys.executable
-    made = subprocess.run(["bash", os.path.join(ROOT, "scripts", "bpy_venv.sh"), version], capture_output=True, text=True)
+    made = subprocess.run(
+        ["bash", os.path.join(ROOT, "scripts", "bpy_venv.sh"), version], capture_output=True, text=True
+    )
     assert made.returncode == 0, made.stderr
     return made.stdout.strip().splitlines()[-1]
 
 
 def build_linux_zip(python, out_dir, no_wheels=False):
     """The linux-x64 zip, built by that Python's own Blender extension builder."""
-    command = [python, os.path.join(ROOT, "scripts", "build_extension.py"), "--platforms", "linux-x64",
-               "--output-dir", str(out_dir)] + (["--no-wheels"] if no_wheels else [])
+    command = [
+        python,
+        os.path.join(ROOT, "scripts", "build_extension.py"),
+        "--platforms",
+        "linux-x64",
+        "--output-dir",
+        str(out_dir),
+    ] + (["--no-wheels"] if no_wheels else [])
     build = subprocess.run(command, capture_output=True, text=True)
     assert build.returncode == 0, build.stdout + build.stderr
     zips = list(out_dir.glob("*linux_x64.zip"))
@@ -42,7 +50,11 @@ def install_and_use(python, linux_zip, tmp_path, mode):
     result_path = tmp_path / f"result-{mode}.json"
     run = subprocess.run(
         [python, os.path.join(ROOT, "tests", "e2e_install_script.py"), str(linux_zip), str(result_path), mode],
-        env=env, capture_output=True, text=True, cwd=str(tmp_path), timeout=600,
+        env=env,
+        capture_output=True,
+        text=True,
+        cwd=str(tmp_path),
+        timeout=600,
     )
     assert run.returncode == 0, run.stdout + run.stderr
     assert "Error" not in run.stderr and "Traceback" not in run.stderr, run.stderr

@@ -151,9 +151,17 @@ def test_light_is_shadowed_by_the_scene(bpy_module, empty_scene):
     assert on_box[~top].max() < 0.01
 
 
-@pytest.mark.parametrize("kwargs", [dict(threshold=-1.0), dict(threshold=float("nan")),
-                                    dict(threshold="big"), dict(max_lights=9), dict(max_lights=-1),
-                                    dict(max_lights=2.0)])
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        dict(threshold=-1.0),
+        dict(threshold=float("nan")),
+        dict(threshold="big"),
+        dict(max_lights=9),
+        dict(max_lights=-1),
+        dict(max_lights=2.0),
+    ],
+)
 def test_bad_split_settings_change_nothing(bpy_module, empty_scene, kwargs):
     from prt_addon import api
     from prt_addon.blender.world.nodes import WorldError as Error
@@ -261,8 +269,10 @@ def test_suzanne_on_ground_under_city_against_cycles(bpy_module, empty_scene):
     shade_seconds = time.perf_counter() - start
     error_split = rel_rmse_luminance(split, reference)
     error_unsplit = rel_rmse_luminance(unsplit, reference)
-    print(f"\nvertices {len(reference)}, split {100 * error_split:.2f} %, unsplit {100 * error_unsplit:.2f} %, "
-          f"PRT bake {prt_seconds:.1f} s, Cycles {cycles_seconds:.1f} s, shade {shade_seconds:.2f} s")
+    print(
+        f"\nvertices {len(reference)}, split {100 * error_split:.2f} %, unsplit {100 * error_unsplit:.2f} %, "
+        f"PRT bake {prt_seconds:.1f} s, Cycles {cycles_seconds:.1f} s, shade {shade_seconds:.2f} s"
+    )
     assert error_split < 0.025
     assert error_unsplit > 0.04
 

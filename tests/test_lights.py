@@ -38,8 +38,7 @@ def disc_fractions(height, width, centre, radius, sub=32):
         phi = np.pi - phi_step * (c[:, None, None] + t[None, :])
         z, phi = np.broadcast_arrays(z, phi)
         s = np.sqrt(1.0 - z * z)
-        inside = s * np.cos(phi) * centre[0] + s * np.sin(phi) * centre[1] + z * centre[2] \
-            >= np.cos(radius)
+        inside = s * np.cos(phi) * centre[0] + s * np.sin(phi) * centre[1] + z * centre[2] >= np.cos(radius)
         fraction[r, c] = inside.mean(axis=(1, 2))
     return fraction
 
@@ -103,8 +102,7 @@ def test_residual_keeps_the_hue_of_clamped_texels():
     clamped = image.astype(np.float64) @ lights.LUMA > threshold
     kept = residual[clamped].astype(np.float64)
     np.testing.assert_allclose(kept @ lights.LUMA, threshold, rtol=1e-6)
-    np.testing.assert_allclose(kept / kept[:, :1], image[clamped] / image[clamped][:, :1],
-                               rtol=1e-5)
+    np.testing.assert_allclose(kept / kept[:, :1], image[clamped] / image[clamped][:, :1], rtol=1e-5)
     np.testing.assert_array_equal(residual[~clamped], image[~clamped])
     ratio = found[0].power / found[0].power[1]
     np.testing.assert_allclose(ratio, [2.0, 1.0, 0.25], rtol=2e-2)
@@ -189,8 +187,7 @@ def test_connected_components_match_scipy_on_random_masks(density):
     rng = np.random.default_rng(3)
     mask = serpentine(60, 96) if density == "serpentine" else rng.random((40, 96)) < density
     flat = np.flatnonzero(mask)
-    region, count = lights._connected_components(
-        len(flat), *lights._sphere_neighbour_pairs(flat, *mask.shape))
+    region, count = lights._connected_components(len(flat), *lights._sphere_neighbour_pairs(flat, *mask.shape))
     reference = sphere_components_reference(mask).ravel()[flat]
     # Same partition: the pairs (ours, reference) are one-to-one.
     pairs = np.unique(np.stack([region, reference]), axis=1)
@@ -213,8 +210,7 @@ def test_band0_and_full_sh_are_conserved(sun_image):
     assert error < 1e-2
 
 
-@pytest.mark.parametrize("colour", [(1.0, 1.0, 1.0), (0.3, 0.5, 0.9), (0.0, 0.0, 0.0),
-                                    (7e3, 7e3, 7e3)])
+@pytest.mark.parametrize("colour", [(1.0, 1.0, 1.0), (0.3, 0.5, 0.9), (0.0, 0.0, 0.0), (7e3, 7e3, 7e3)])
 def test_uniform_or_one_colour_image_gives_no_lights(colour):
     image = np.broadcast_to(np.asarray(colour, np.float32), (HEIGHT, WIDTH, 3)).copy()
     residual, found = lights.extract_lights(image)
@@ -236,8 +232,7 @@ def test_max_lights_caps_the_count_and_returned_regions_conserve_energy():
     power = sum(light.power for light in found)
     np.testing.assert_allclose(split[0] + power * Y0, original[0], rtol=1e-9)
     for centre, _, _ in discs[:3]:  # the weaker discs are back in the residual untouched
-        row, col = np.unravel_index(np.argmax(pixel_directions(HEIGHT, WIDTH) @ centre),
-                                    (HEIGHT, WIDTH))
+        row, col = np.unravel_index(np.argmax(pixel_directions(HEIGHT, WIDTH) @ centre), (HEIGHT, WIDTH))
         np.testing.assert_array_equal(residual[row, col], image[row, col])
     residual, found = lights.extract_lights(image, max_lights=0)
     assert found == []
@@ -252,11 +247,21 @@ def test_min_share_drops_negligible_regions_into_the_residual():
     assert len(found) == 2
 
 
-@pytest.mark.parametrize("kwargs", [
-    {"threshold": float("nan")}, {"threshold": -1.0}, {"threshold": float("inf")},
-    {"threshold": "10"}, {"max_lights": 9}, {"max_lights": -1}, {"max_lights": 2.5},
-    {"max_lights": True}, {"min_share": -0.1}, {"min_share": float("nan")},
-])
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"threshold": float("nan")},
+        {"threshold": -1.0},
+        {"threshold": float("inf")},
+        {"threshold": "10"},
+        {"max_lights": 9},
+        {"max_lights": -1},
+        {"max_lights": 2.5},
+        {"max_lights": True},
+        {"min_share": -0.1},
+        {"min_share": float("nan")},
+    ],
+)
 def test_bad_arguments_raise_value_error(kwargs):
     with pytest.raises(ValueError):
         lights.extract_lights(np.ones((8, 16, 3), np.float32), **kwargs)
@@ -281,14 +286,12 @@ def rotation_z(angle):
 
 
 def test_rotating_lights_matches_rotating_the_image():
-    image = sky_with_discs([(unit(30.0, 40.0), RADIUS, 1000.0), (unit(-100.0, -20.0), RADIUS,
-                                                                  500.0)])
+    image = sky_with_discs([(unit(30.0, 40.0), RADIUS, 1000.0), (unit(-100.0, -20.0), RADIUS, 500.0)])
     rolled = np.roll(image, WIDTH // 4, axis=1)
     # Rolling the columns by W/4 moves what was at azimuth phi to phi - 90 degrees.
     rotation = rotation_z(-np.pi / 2)
     directions = pixel_directions(HEIGHT, WIDTH)
-    np.testing.assert_allclose(np.roll(directions, WIDTH // 4, axis=1) @ rotation.T, directions,
-                               atol=1e-12)
+    np.testing.assert_allclose(np.roll(directions, WIDTH // 4, axis=1) @ rotation.T, directions, atol=1e-12)
     _, found = lights.extract_lights(image)
     _, found_rolled = lights.extract_lights(rolled)
     rotated = lights.rotate_lights(found, rotation)
@@ -346,9 +349,11 @@ class HalfPlane:
 def half_plane_free_fraction(y0, angle):
     """Seen from (0, y0, 0) the half-plane hides the zenith cap's directions with
     tan(theta) sin(phi) > -y0; the phi measure of sin(phi) > t is pi - 2 asin(t)."""
+
     def hidden(theta):
         t = np.clip(-y0 / np.tan(theta), -1.0, 1.0) if theta > 0 else np.sign(-y0)
         return np.sin(theta) * (np.pi - 2.0 * np.arcsin(t))
+
     value, _ = integrate.quad(hidden, 0.0, angle, limit=200, points=[abs(np.arctan(y0))])
     return 1.0 - value / cap_solid_angle(angle)
 
@@ -378,8 +383,9 @@ def test_light_visibility_at_the_horizon():
     grazing = lights.Light(direction=unit(0.0, 2.0), power=[1.0] * 3, angle=angle)
     below = lights.Light(direction=unit(0.0, -1.0), power=[1.0] * 3, angle=angle)
     sharp = lights.Light(direction=unit(0.0, 30.0), power=[1.0] * 3, angle=0.0)
-    seen = lights.light_visibility(np.zeros((1, 3)), [[0.0, 0.0, 1.0]], [grazing, below, sharp],
-                                   Nothing(), rays_per_light=512)
+    seen = lights.light_visibility(
+        np.zeros((1, 3)), [[0.0, 0.0, 1.0]], [grazing, below, sharp], Nothing(), rays_per_light=512
+    )
     # Part of the grazing disc is below the tangent plane: the free fraction is the cap's share
     # above it, estimated independently with random points on the cap.
     rng = np.random.default_rng(1)
@@ -401,11 +407,11 @@ def test_light_irradiance_closed_form_and_texel_sum(sun_image):
     closed = found[0].power[None] / np.pi * np.maximum(0.0, normals @ found[0].direction)[:, None]
     np.testing.assert_allclose(shown, closed, rtol=1e-12, atol=1e-12)
     visibility = rng.random((200, 1))
-    np.testing.assert_allclose(lights.light_irradiance(normals, found, visibility),
-                               closed * visibility, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        lights.light_irradiance(normals, found, visibility), closed * visibility, rtol=1e-12, atol=1e-12
+    )
     # Same unit as the transfer max(0, n . w) / pi: the excess summed texel by texel.
-    excess = (sun_image.astype(np.float64) - residual) * pixel_solid_angles(HEIGHT, WIDTH)[:, None,
-                                                                                             None]
+    excess = (sun_image.astype(np.float64) - residual) * pixel_solid_angles(HEIGHT, WIDTH)[:, None, None]
     dirs = pixel_directions(HEIGHT, WIDTH).reshape(-1, 3)
     facing = normals @ found[0].direction > 0.2
     brute = np.maximum(0.0, normals[facing] @ dirs.T) / np.pi @ excess.reshape(-1, 3)

@@ -160,9 +160,16 @@ def test_panel_and_api_share_the_samples_minimum(bpy_module, empty_scene):
 def test_operator_report_line_comes_from_the_report_fields(bpy_module):
     from prt_addon.blender.bake import reports, settings
 
-    report = settings.BakeReport(ok=True, objects=["a", "b"], backend="EMBREE", seconds=1.25,
-                                 rays_traced=1_234_567, error_estimate_relative=0.031,
-                                 note="a note", skipped=[("c", "is a camera")])
+    report = settings.BakeReport(
+        ok=True,
+        objects=["a", "b"],
+        backend="EMBREE",
+        seconds=1.25,
+        rays_traced=1_234_567,
+        error_estimate_relative=0.031,
+        note="a note",
+        skipped=[("c", "is a camera")],
+    )
     said = []
 
     class Op:
@@ -170,7 +177,6 @@ def test_operator_report_line_comes_from_the_report_fields(bpy_module):
             said.append((set(kind), message))
 
     reports._report_to_operator(Op(), report)
-    assert said[0] == ({"INFO"}, "PRT: Baked 2 object(s) in 1.25 s (EMBREE), 1,234,567 rays, "
-                                 "error estimate 3.10 %")
+    assert said[0] == ({"INFO"}, "PRT: Baked 2 object(s) in 1.25 s (EMBREE), 1,234,567 rays, error estimate 3.10 %")
     assert said[1] == ({"WARNING"}, "PRT: a note")
     assert said[2] == ({"WARNING"}, "PRT: skipped 'c': is a camera")

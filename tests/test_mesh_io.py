@@ -31,6 +31,7 @@ def _mesh(bpy, name, vertices, faces):
 def _flips(mesh_io, mesh):
     """Per quad of the mesh: whether Blender's first split (0-2 diagonal) was replaced."""
     from prt_addon.blender import mesh_read
+
     triangles = _loop_triangles(mesh)
     corner_verts = mesh_read.read_corner_verts(mesh)
     starts = mesh_read.read_face_starts(mesh)
@@ -45,6 +46,7 @@ def test_read_triangles_matches_loop_triangles_on_quads_and_triangles(empty_scen
     at either corner, degenerate quads (a repeated point, collinear points, all one point) and
     triangles, mixed in one mesh: the same triangles in the same order as mesh.loop_triangles."""
     from prt_addon.blender import mesh_read
+
     bpy = bpy_module
     rng = np.random.default_rng(7)
     vertices, faces = [], []
@@ -85,6 +87,7 @@ def test_read_triangles_with_ngons_and_without_faces(empty_scene, bpy_module, me
     """N-gons (here a concave hexagon and a cylinder's caps) are read from loop_triangles; a mesh
     without faces has no triangles."""
     from prt_addon.blender import mesh_read
+
     bpy = bpy_module
     hexagon = [(0, 0, 0), (2, 0, 0), (2, 2, 0), (1, 0.5, 0), (0, 2, 0), (-0.5, 1, 0)]
     mesh = _mesh(bpy, "ngon", hexagon + [(0, 0, 1), (1, 0, 1), (0, 1, 1)], [range(6), (6, 7, 8)])
@@ -101,6 +104,7 @@ def test_flat_grid_with_rounded_normals_bakes_per_vertex(empty_scene, bpy_module
     """A flat-shaded grid's face normals come out as (0, 0, 1) or (0, 0, 0.99999994) depending
     on the face; still one normal per vertex, so one bake point per vertex (POINT)."""
     from prt_addon.blender import mesh_read
+
     bpy = bpy_module
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=150, y_subdivisions=150, size=8)
     mesh = bpy.context.object.data
@@ -109,14 +113,14 @@ def test_flat_grid_with_rounded_normals_bakes_per_vertex(empty_scene, bpy_module
     assert len(np.unique(normals, axis=0)) > 1  # not bit-identical: the case under test
     points = mesh_read.bake_points(mesh, np.eye(4))
     assert points.domain == "POINT" and len(points.positions) == len(mesh.vertices)
-    np.testing.assert_allclose(points.normals, np.tile([0.0, 0.0, 1.0], (len(mesh.vertices), 1)),
-                               atol=1e-6)
+    np.testing.assert_allclose(points.normals, np.tile([0.0, 0.0, 1.0], (len(mesh.vertices), 1)), atol=1e-6)
 
 
 def test_vertex_normal_pairs_merges_only_within_tolerance(mesh_io):
     """Corner normals of one vertex within NORMAL_TOLERANCE are one pair; farther ones, and the
     same normal at another vertex, stay separate; inverse maps each corner to its pair."""
     from prt_addon.core import mesh as core_mesh
+
     tol = core_mesh.NORMAL_TOLERANCE
     up = np.array([0.0, 0.0, 1.0], np.float32)
     tilted = np.array([0.0, 3 * tol, 1.0], np.float32)

@@ -115,15 +115,17 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 def run_python(code):
     """Run code in a fresh interpreter of this venv (a crash there fails the test, not pytest)."""
     env = dict(os.environ, PYTHONPATH=ROOT)
-    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True,
-                          env=env, cwd=ROOT, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True, env=env, cwd=ROOT, timeout=120
+    )
 
 
 def blender_embrees():
     """bpy's own libembree4 in each of this checkout's venvs (looked up when the test runs: the
     venvs of bpy 4.2 and 4.5 are made by tests/test_install.py, earlier in the same run)."""
-    return sorted(glob.glob(os.path.join(ROOT, ".venv*", "lib", "python3*", "site-packages", "bpy", "lib",
-                                         "libembree4.so*")))
+    return sorted(
+        glob.glob(os.path.join(ROOT, ".venv*", "lib", "python3*", "site-packages", "bpy", "lib", "libembree4.so*"))
+    )
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="shared buffers are Linux only")
@@ -159,8 +161,12 @@ def check_bound_to(library):
         assert np.array_equal(shared.occluded(origins, directions), copied.occluded(origins, directions))
         print("ok")
     """)
-    assert out.returncode == 0 and out.stdout.strip().endswith("ok"), (library, out.returncode, out.stdout,
-                                                                         out.stderr[-3000:])
+    assert out.returncode == 0 and out.stdout.strip().endswith("ok"), (
+        library,
+        out.returncode,
+        out.stdout,
+        out.stderr[-3000:],
+    )
 
 
 def test_an_embree_error_is_reported_not_a_crash():

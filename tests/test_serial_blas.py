@@ -38,7 +38,8 @@ def test_matmul_serial_leaves_no_blas_thread_spinning():
         "(40000 x 3) @ (3,)": lambda: matmul_serial(a, m[0]),
         "(22 x 3) @ (3 x 4096), blocks of 21 rows and 1": lambda: matmul_serial(a[:22], wide),
         "(21 x 512) @ (512 x 25), accumulated": lambda: matmul_serial(
-            rng.random((21, 512)), tall, np.zeros((21, 25)), accumulate=True),
+            rng.random((21, 512)), tall, np.zeros((21, 25)), accumulate=True
+        ),
     }
     ticks = {name: ticks_of_other_threads_after(call) for name, call in cases.items()}
     assert all(t <= 1 for t in ticks.values()), ticks

@@ -162,13 +162,19 @@ def test_spherical_cap_matches_closed_form_and_solid_angle():
     alpha = np.radians(5.0)
     zonal = analytic.cap_zonal(30, alpha)
     closed = [2 * np.pi * np.sqrt(1 / (4 * np.pi)) * (1 - np.cos(alpha))] + [
-        2 * np.pi * np.sqrt((2 * l + 1) / (4 * np.pi)) * (eval_legendre(l - 1, np.cos(alpha)) - eval_legendre(l + 1, np.cos(alpha))) / (2 * l + 1)
+        2
+        * np.pi
+        * np.sqrt((2 * l + 1) / (4 * np.pi))
+        * (eval_legendre(l - 1, np.cos(alpha)) - eval_legendre(l + 1, np.cos(alpha)))
+        / (2 * l + 1)
         for l in range(1, 30)
     ]
     np.testing.assert_allclose(zonal, closed, rtol=1e-9, atol=1e-15)
     coeffs = analytic.cap_coeffs(8, (1.0, 0.0, 0.0), alpha, radiance=[1e4, 2e4, 3e4])
     # c_0 * y_0 * 4 pi = integral of the function = radiance * solid angle 2 pi (1 - cos alpha).
-    np.testing.assert_allclose(coeffs[0] * np.sqrt(4 * np.pi), np.array([1e4, 2e4, 3e4]) * 2 * np.pi * (1 - np.cos(alpha)), rtol=1e-13)
+    np.testing.assert_allclose(
+        coeffs[0] * np.sqrt(4 * np.pi), np.array([1e4, 2e4, 3e4]) * 2 * np.pi * (1 - np.cos(alpha)), rtol=1e-13
+    )
 
 
 def test_convolution_with_clamped_cosine_equals_per_normal_transfer():

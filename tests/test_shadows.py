@@ -141,8 +141,7 @@ def test_box_shadow_straight_down(bpy_module, ground_scene):
     assert inside.sum() > 100 and outside.sum() > 1000
     # V is exactly 0 or 1 there, so only float32 rounding separates the image from the closed form.
     np.testing.assert_allclose(got[inside], np.tile(SKY, (inside.sum(), 1)), rtol=1e-5, atol=1e-6)
-    np.testing.assert_allclose(got[outside], np.tile(SKY + POWER / np.pi, (outside.sum(), 1)), rtol=1e-5,
-                               atol=1e-6)
+    np.testing.assert_allclose(got[outside], np.tile(SKY + POWER / np.pi, (outside.sum(), 1)), rtol=1e-5, atol=1e-6)
 
 
 def test_mapping_rotation_moves_the_shadow(bpy_module, ground_scene):
@@ -204,8 +203,9 @@ def test_vertices_agree_with_traced_visibility(bpy_module, ground_scene):
         same &= core_lights.light_visibility(moved, normals, [light], occluder, rays_per_light=16)[:, 0] == vis
     to_camera = np.array(scene.camera.location) - points
     to_camera /= np.linalg.norm(to_camera, axis=1, keepdims=True)
-    seen = ~np.asarray(occluder.occluded((points + 1e-4 * normals).astype(np.float32),
-                                         to_camera.astype(np.float32)), dtype=bool)
+    seen = ~np.asarray(
+        occluder.occluded((points + 1e-4 * normals).astype(np.float32), to_camera.astype(np.float32)), dtype=bool
+    )
     # The unbaked box is not drawn: the ground under it is seen; the baked sphere hides some.
     seen |= np.max(np.abs(points[:, :2]), axis=1) < 0.5
     interior = (np.max(np.abs(points[:, :2]), axis=1) < 3.9) & seen

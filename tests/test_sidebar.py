@@ -24,10 +24,20 @@ def test_result_line_and_report_speak_plainly_and_fit(bpy_module):
     from prt_addon.blender.bake.settings import BakeReport
     from prt_addon.blender.ui.bake_panel import result_line
 
-    report = BakeReport(ok=True, objects=["Suzanne", "Ground"], backend="EMBREE", seconds=0.561,
-                        rays_traced=1_491_273, rays_skipped=1_498_512, skipped_below_horizon=1_400_000,
-                        skipped_unoccludable=98_512, order=4, samples=256, direction_set="FIBONACCI",
-                        error_estimate_relative=0.0312)
+    report = BakeReport(
+        ok=True,
+        objects=["Suzanne", "Ground"],
+        backend="EMBREE",
+        seconds=0.561,
+        rays_traced=1_491_273,
+        rays_skipped=1_498_512,
+        skipped_below_horizon=1_400_000,
+        skipped_unoccludable=98_512,
+        order=4,
+        samples=256,
+        direction_set="FIBONACCI",
+        error_estimate_relative=0.0312,
+    )
     assert result_line(report) == "0.56 s - 1.5 M rays - about 3 % noise"
     lines = report.report_lines()
     assert lines[0] == "Baked 2 object(s): Suzanne, Ground"

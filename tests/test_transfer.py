@@ -131,8 +131,9 @@ def test_cup_matches_closed_form_coefficients():
     assert expected[0] == pytest.approx(np.sin(alpha) ** 2 * Y00, rel=1e-12)
     assert expected[2] == pytest.approx(2 * np.sqrt(3 / (4 * np.pi)) * (1 - np.cos(alpha) ** 3) / 3, rel=1e-12)
     dirs = make_directions("FIBONACCI", 8192, 3)
-    res = transfer.compute_transfer(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), dirs, ORDER,
-                                    CupOccluder(), offset=1e-7)
+    res = transfer.compute_transfer(
+        np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), dirs, ORDER, CupOccluder(), offset=1e-7
+    )
     np.testing.assert_allclose(res.coeffs[0], expected, atol=1.5e-3)
     assert np.linalg.norm(res.coeffs[0] - expected) < 3 * res.error[0]
 
@@ -143,10 +144,14 @@ def test_embree_cup_mesh_matches_closed_form():
     rings, segments = 48, 192
     theta = np.linspace(np.pi, np.pi / 2, rings + 1)[1:]  # from near the bottom to the rim
     phi = np.linspace(0, 2 * np.pi, segments, endpoint=False)
-    ring_pts = np.stack([
-        np.outer(np.sin(theta), np.cos(phi)), np.outer(np.sin(theta), np.sin(phi)),
-        1.0 + np.outer(np.cos(theta), np.ones_like(phi)),
-    ], axis=-1).reshape(-1, 3)
+    ring_pts = np.stack(
+        [
+            np.outer(np.sin(theta), np.cos(phi)),
+            np.outer(np.sin(theta), np.sin(phi)),
+            1.0 + np.outer(np.cos(theta), np.ones_like(phi)),
+        ],
+        axis=-1,
+    ).reshape(-1, 3)
     verts = np.vstack([[0.0, 0.0, 0.0], ring_pts])
     tris = [(0, 1 + (s + 1) % segments, 1 + s) for s in range(segments)]
     for r in range(rings - 1):
@@ -156,8 +161,7 @@ def test_embree_cup_mesh_matches_closed_form():
             tris += [(a + s, a + s1, b + s1), (a + s, b + s1, b + s)]
     occ = raytrace.EmbreeOccluder(verts, np.array(tris))
     dirs = make_directions("FIBONACCI", 8192, 4)
-    res = transfer.compute_transfer(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), dirs, ORDER, occ,
-                                    offset=1e-4)
+    res = transfer.compute_transfer(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), dirs, ORDER, occ, offset=1e-4)
     # The polygonal rim is slightly inside the circle: allow for the tessellation.
     np.testing.assert_allclose(res.coeffs[0], cup_coeffs(ORDER, np.pi / 4), atol=3e-3)
 
@@ -170,8 +174,9 @@ def test_error_estimate_tracks_true_error(kind, lo, hi):
     true, est = [], []
     for seed in range(32):
         dirs = make_directions(kind, 1024, 100 + seed)
-        res = transfer.compute_transfer(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), dirs, ORDER,
-                                        CupOccluder(), offset=1e-7)
+        res = transfer.compute_transfer(
+            np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), dirs, ORDER, CupOccluder(), offset=1e-7
+        )
         true.append(np.linalg.norm(res.coeffs[0] - expected))
         est.append(res.error[0])
     ratio = np.sqrt(np.mean(np.square(est)) / np.mean(np.square(true)))
@@ -219,8 +224,7 @@ def test_horizon_culling_and_counts():
     rng = np.random.default_rng(0)
     n = rng.normal(size=(300, 3))
     dirs = make_directions("STRATIFIED", 200, 5)
-    res = transfer.compute_transfer(np.zeros((300, 3)), n, dirs, 3, PlaneOccluder((0, 0, -5), (0, 0, 1)),
-                                    offset=1e-3)
+    res = transfer.compute_transfer(np.zeros((300, 3)), n, dirs, 3, PlaneOccluder((0, 0, -5), (0, 0, 1)), offset=1e-3)
     above = (n / np.linalg.norm(n, axis=1, keepdims=True)) @ dirs.directions.T > 0
     s = res.stats
     assert s.rays_traced == above.sum()
@@ -233,8 +237,9 @@ def test_unoccludable_points_trace_nothing():
     p = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])
     dirs = make_directions("FIBONACCI", 256, 0)
     box_below = np.array([[[-1, -1, -1], [1, 1, 0.5]]], dtype=float)
-    res = transfer.compute_transfer(p, n, dirs, 3, PlaneOccluder((0, 0, 0), (0, 0, 1)), offset=1e-4,
-                                    self_occludes=False, other_boxes=box_below)
+    res = transfer.compute_transfer(
+        p, n, dirs, 3, PlaneOccluder((0, 0, 0), (0, 0, 1)), offset=1e-4, self_occludes=False, other_boxes=box_below
+    )
     # The point facing up sees nothing above its tangent plane; the one facing down is traced.
     up = int(np.count_nonzero(dirs.directions[:, 2] > 0))
     down = int(np.count_nonzero(dirs.directions[:, 2] < 0))
@@ -278,8 +283,9 @@ def _peak_bytes(samples, chunk_rays, kind="FIBONACCI", order=4):
     dirs = make_directions(kind, samples, 0)
     dirs.basis(order)
     tracemalloc.start()
-    comp = transfer.TransferComputation(p, p, dirs, order, PlaneOccluder((0, 0, -50), (0, 0, 1)),
-                                        offset=1e-3, chunk_rays=chunk_rays, threads=2)
+    comp = transfer.TransferComputation(
+        p, p, dirs, order, PlaneOccluder((0, 0, -50), (0, 0, 1)), offset=1e-3, chunk_rays=chunk_rays, threads=2
+    )
     base = tracemalloc.get_traced_memory()[0]
     tracemalloc.reset_peak()
     comp.run()
@@ -352,8 +358,19 @@ def test_error_relative_is_rms_error_over_rms_transfer_norm():
 def _box(lo=(-1, -1, -1), hi=(1, 1, 1)):
     x0, y0, z0 = lo
     x1, y1, z1 = hi
-    v = np.array([[x0, y0, z0], [x1, y0, z0], [x1, y1, z0], [x0, y1, z0],
-                  [x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]], float)
+    v = np.array(
+        [
+            [x0, y0, z0],
+            [x1, y0, z0],
+            [x1, y1, z0],
+            [x0, y1, z0],
+            [x0, y0, z1],
+            [x1, y0, z1],
+            [x1, y1, z1],
+            [x0, y1, z1],
+        ],
+        float,
+    )
     quads = [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)]
     t = [(a, b, c) for a, b, c, d in quads] + [(a, c, d) for a, b, c, d in quads]
     return v, np.array(t)

@@ -47,10 +47,7 @@ def cap_zonal(order, alpha, inside, outside):
     x = 0.5 * (1.0 - ca) * nodes + 0.5 * (1.0 + ca)
     w = 0.5 * (1.0 - ca) * wts
     z = np.array(
-        [
-            2.0 * np.pi * math.sqrt((2 * l + 1) / (4 * np.pi)) * np.sum(w * eval_legendre(l, x))
-            for l in range(order)
-        ]
+        [2.0 * np.pi * math.sqrt((2 * l + 1) / (4 * np.pi)) * np.sum(w * eval_legendre(l, x)) for l in range(order)]
     )
     z *= inside - outside
     z[0] += outside * math.sqrt(4.0 * np.pi)
@@ -60,9 +57,7 @@ def cap_zonal(order, alpha, inside, outside):
 def zonal_matrix(order, axis, dirs):
     """(N, order): sqrt((2l+1)/(4 pi)) P_l(axis . x), so f(x) = matrix @ (w_l z_l)."""
     t = np.clip(dirs @ axis, -1.0, 1.0)
-    return np.stack(
-        [math.sqrt((2 * l + 1) / (4 * np.pi)) * eval_legendre(l, t) for l in range(order)], axis=1
-    )
+    return np.stack([math.sqrt((2 * l + 1) / (4 * np.pi)) * eval_legendre(l, t) for l in range(order)], axis=1)
 
 
 def random_directions(count, seed):
@@ -355,8 +350,7 @@ def test_already_non_negative_gets_no_window():
     lobe = np.exp(2.0 * nodes)
     z = np.array(
         [
-            2 * np.pi * math.sqrt((2 * l + 1) / (4 * np.pi))
-            * np.sum(wts * lobe * eval_legendre(l, nodes))
+            2 * np.pi * math.sqrt((2 * l + 1) / (4 * np.pi)) * np.sum(wts * lobe * eval_legendre(l, nodes))
             for l in range(order)
         ]
     )

@@ -168,9 +168,7 @@ def test_mapping_zero_and_quarter_turn_about_z_match_shifted_image(bpy_module, e
     np.testing.assert_allclose(zero, plain, rtol=0, atol=1e-12)
     shift = width // 4 if vector_type != "TEXTURE" else -width // 4
     expected = project_image(bpy_module, empty_scene, np.roll(rgb, shift, axis=1), 6)
-    turned = project_image(
-        bpy_module, empty_scene, rgb, 6, euler=(0, 0, math.radians(90)), vector_type=vector_type
-    )
+    turned = project_image(bpy_module, empty_scene, rgb, 6, euler=(0, 0, math.radians(90)), vector_type=vector_type)
     np.testing.assert_allclose(turned, expected, atol=1e-7 * np.abs(c).max())  # float32 pixels
     # The opposite turn is far from it (so the comparison can fail).
     wrong = project_image(bpy_module, empty_scene, np.roll(rgb, -shift, axis=1), 6)
@@ -197,8 +195,12 @@ def test_mapping_rotation_matches_projecting_a_rotated_image(bpy_module, empty_s
     lookup = r if vector_type != "TEXTURE" else r.T
     expected = project_image(bpy_module, empty_scene, image_of(c, height, width, lookup), 6)
     out = project_image(
-        bpy_module, empty_scene, image_of(c, height, width), 6,
-        euler=tuple(np.radians(euler)), vector_type=vector_type,
+        bpy_module,
+        empty_scene,
+        image_of(c, height, width),
+        6,
+        euler=tuple(np.radians(euler)),
+        vector_type=vector_type,
     )
     scale = np.abs(c).max()
     np.testing.assert_allclose(out, expected, atol=4e-4 * scale)

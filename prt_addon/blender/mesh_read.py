@@ -76,10 +76,7 @@ def topology_fingerprint(mesh):
     h = hashlib.blake2b(digest_size=8)
     h.update(read_corner_verts(mesh).tobytes())
     h.update(read_face_starts(mesh).tobytes())
-    return (
-        f"{len(mesh.vertices)}:{len(mesh.edges)}:{len(mesh.polygons)}:{len(mesh.loops)}:"
-        f"{h.hexdigest()}"
-    )
+    return f"{len(mesh.vertices)}:{len(mesh.edges)}:{len(mesh.polygons)}:{len(mesh.loops)}:{h.hexdigest()}"
 
 
 def bake_points(mesh, matrix4, positions=None):
@@ -94,9 +91,7 @@ def bake_points(mesh, matrix4, positions=None):
     if mesh.normals_domain == "POINT":
         return vertex_points(matrix4, positions, read_vertex_normals(mesh))
     # Corners that share a vertex and a normal (smooth regions) get the same transfer: bake once.
-    vert, normals, inverse = vertex_normal_pairs(
-        read_corner_verts(mesh), read_corner_normals(mesh), len(positions)
-    )
+    vert, normals, inverse = vertex_normal_pairs(read_corner_verts(mesh), read_corner_normals(mesh), len(positions))
     if np.array_equal(vert, np.arange(len(positions))):  # sorted: exactly one normal each
         return vertex_points(matrix4, positions, normals)
     return BakePoints(

@@ -133,7 +133,7 @@ def write_transfer(mesh, values, domain, record):
         channel = np.ascontiguousarray(packed[:, 4 * k : 4 * k + 4]).reshape(-1)
         mesh.attributes[name].data.foreach_set("color", channel)
     for name in transfer_attribute_names(mesh):
-        if int(name[len(PREFIX):]) >= count:
+        if int(name[len(PREFIX) :]) >= count:
             _remove(mesh, name)
     mesh[RECORD] = dict(record, count=count, domain=domain)
     _set_color_names(mesh, active, default)
@@ -173,8 +173,10 @@ def read_bake_record(mesh):
     except (TypeError, ValueError):
         return None, "the bake record is incomplete"
     if version > FORMAT_VERSION:
-        return None, (f"made by a newer version of PRT Lighting (storage format {version}, this "
-                      f"version reads up to {FORMAT_VERSION})")
+        return None, (
+            f"made by a newer version of PRT Lighting (storage format {version}, this "
+            f"version reads up to {FORMAT_VERSION})"
+        )
     try:
         order, count, domain = int(record["order"]), int(record["count"]), str(record["domain"])
     except (KeyError, TypeError, ValueError):

@@ -31,8 +31,13 @@ FACE_POWER_SQUARINGS = 3
 FACE_POWER = 2**FACE_POWER_SQUARINGS
 
 
-def inward_tangents(positions: npt.ArrayLike, normals: npt.ArrayLike, vertices: npt.ArrayLike, triangles: npt.ArrayLike,
-                    point_vertex: npt.ArrayLike | None = None) -> np.ndarray:
+def inward_tangents(
+    positions: npt.ArrayLike,
+    normals: npt.ArrayLike,
+    vertices: npt.ArrayLike,
+    triangles: npt.ArrayLike,
+    point_vertex: npt.ArrayLike | None = None,
+) -> np.ndarray:
     """(P, 3) tangents, of length at most 1, pointing from each point into its own surface.
 
     For the point's vertex a and each triangle corner (a, b, c) around it, with unit edges e1,
@@ -88,8 +93,11 @@ def inward_tangents(positions: npt.ArrayLike, normals: npt.ArrayLike, vertices: 
             length = np.sqrt(ej[0] * ej[0] + ej[1] * ej[1] + ej[2] * ej[2])
             np.maximum(length, 1e-30, out=length)
             e.append([c / length for c in ej])
-        m = [e[0][1] * e[1][2] - e[0][2] * e[1][1], e[0][2] * e[1][0] - e[0][0] * e[1][2],
-             e[0][0] * e[1][1] - e[0][1] * e[1][0]]
+        m = [
+            e[0][1] * e[1][2] - e[0][2] * e[1][1],
+            e[0][2] * e[1][0] - e[0][0] * e[1][2],
+            e[0][0] * e[1][1] - e[0][1] * e[1][0],
+        ]
         length = np.sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
         np.maximum(length, 1e-30, out=length)
         m = [c / length for c in m]

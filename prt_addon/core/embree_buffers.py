@@ -43,8 +43,9 @@ _SIGNATURES = {
     "rtcGetDeviceError": (ctypes.c_int, [_P]),
     "rtcNewGeometry": (_P, [_P, ctypes.c_int]),
     "rtcSetSharedGeometryBuffer": (
-        None, [_P, ctypes.c_int, ctypes.c_uint, ctypes.c_int, _P, ctypes.c_size_t, ctypes.c_size_t,
-               ctypes.c_size_t]),
+        None,
+        [_P, ctypes.c_int, ctypes.c_uint, ctypes.c_int, _P, ctypes.c_size_t, ctypes.c_size_t, ctypes.c_size_t],
+    ),
     "rtcCommitGeometry": (None, [_P]),
     "rtcAttachGeometry": (ctypes.c_uint, [_P, _P]),
     "rtcReleaseGeometry": (None, [_P]),
@@ -127,10 +128,12 @@ def _attach(lib, scene, vertices, triangles):
         if not geometry:
             raise RuntimeError(f"rtcNewGeometry failed (Embree error {lib.rtcGetDeviceError(device)})")
         try:
-            lib.rtcSetSharedGeometryBuffer(geometry, _BUFFER_TYPE_VERTEX, 0, _FORMAT_FLOAT3,
-                                           padded.ctypes.data, 0, 16, len(padded))
-            lib.rtcSetSharedGeometryBuffer(geometry, _BUFFER_TYPE_INDEX, 0, _FORMAT_UINT3,
-                                           indices.ctypes.data, 0, 12, len(indices))
+            lib.rtcSetSharedGeometryBuffer(
+                geometry, _BUFFER_TYPE_VERTEX, 0, _FORMAT_FLOAT3, padded.ctypes.data, 0, 16, len(padded)
+            )
+            lib.rtcSetSharedGeometryBuffer(
+                geometry, _BUFFER_TYPE_INDEX, 0, _FORMAT_UINT3, indices.ctypes.data, 0, 12, len(indices)
+            )
             lib.rtcCommitGeometry(geometry)
             lib.rtcAttachGeometry(handle, geometry)
         finally:
@@ -146,8 +149,9 @@ def _attach(lib, scene, vertices, triangles):
 def _self_test(lib, scene_type):
     """Trace known rays against one triangle attached this way: True when all answers are right."""
     scene = scene_type()
-    keep = _attach(lib, scene, np.array([[-1, -1, 1], [1, -1, 1], [0, 1, 1]], np.float32),
-                   np.array([[0, 1, 2]], np.int32))
+    keep = _attach(
+        lib, scene, np.array([[-1, -1, 1], [1, -1, 1], [0, 1, 1]], np.float32), np.array([[0, 1, 2]], np.int32)
+    )
     origins = np.zeros((3, 3), np.float32)
     directions = np.array([[0, 0, 1], [0, 0, -1], [5, 0, 1]], np.float32)
     hits = scene.run(origins, directions, query="OCCLUDED") == 0

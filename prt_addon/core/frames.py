@@ -38,8 +38,7 @@ def to_local_frame(coeffs: npt.ArrayLike, linear: npt.ArrayLike) -> np.ndarray:
     # rotation_matrix(R^-1) is block-diagonal by band: one (2l+1)^2 product per band (order^4 ->
     # ~order^3 / 3 multiplications per row); mirrored, band l is also scaled by (-1)^l.
     blocks = band_matrices(r.T, order)
-    band_t = [np.ascontiguousarray(block.T * (-1.0 if mirrored and l % 2 else 1.0))
-              for l, block in enumerate(blocks)]
+    band_t = [np.ascontiguousarray(block.T * (-1.0 if mirrored and l % 2 else 1.0)) for l, block in enumerate(blocks)]
     bands = [slice(l * l, (l + 1) * (l + 1)) for l in range(order)]
     out = np.empty(coeffs.shape, dtype=coeffs.dtype)
     # float64 maths in blocks of 1024 rows through two reused buffers (fresh multi-megabyte

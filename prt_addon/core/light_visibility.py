@@ -60,8 +60,9 @@ def _unit_rows(vectors):
     return np.divide(v, length[:, None], out=np.zeros_like(v), where=ok[:, None])
 
 
-def light_irradiance(normals: npt.ArrayLike, lights: Sequence[Light],
-                     visibility: npt.ArrayLike | None = None) -> np.ndarray:
+def light_irradiance(
+    normals: npt.ArrayLike, lights: Sequence[Light], visibility: npt.ArrayLike | None = None
+) -> np.ndarray:
     """(P, 3) radiance shown under the lights: sum_l power_l / pi * max(0, n . s_l) * V[:, l].
 
     That is E / pi, the unit of the SH shading sum_i L_i t_i (transfer max(0, n . w) / pi * V).
@@ -81,8 +82,14 @@ def light_irradiance(normals: npt.ArrayLike, lights: Sequence[Light],
     return matmul_serial(weight, powers)
 
 
-def light_visibility(points: npt.ArrayLike, normals: npt.ArrayLike, lights: Sequence[Light], occluder: Any,
-                     rays_per_light: int = 16, offset: npt.ArrayLike | None = None) -> np.ndarray:
+def light_visibility(
+    points: npt.ArrayLike,
+    normals: npt.ArrayLike,
+    lights: Sequence[Light],
+    occluder: Any,
+    rays_per_light: int = 16,
+    offset: npt.ArrayLike | None = None,
+) -> np.ndarray:
     """(P, L) fraction of each light's disc seen from each point, by rays to disc_directions.
 
     occluder follows the core.raytrace protocol: occluded(origins f32 (N, 3), dirs f32 (N, 3))
@@ -92,8 +99,7 @@ def light_visibility(points: npt.ArrayLike, normals: npt.ArrayLike, lights: Sequ
     surface hides them) and are not traced; points with the light's centre below the horizon get
     0 (their irradiance is 0 anyway). A light of angle 0 gets one ray.
     """
-    if isinstance(rays_per_light, bool) or not isinstance(rays_per_light, (int, np.integer)) \
-            or rays_per_light < 1:
+    if isinstance(rays_per_light, bool) or not isinstance(rays_per_light, (int, np.integer)) or rays_per_light < 1:
         raise ValueError(f"rays_per_light must be an integer >= 1, got {rays_per_light!r}")
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     normals = _unit_rows(normals)
@@ -107,8 +113,7 @@ def light_visibility(points: npt.ArrayLike, normals: npt.ArrayLike, lights: Sequ
     origins = points + offset[:, None] * normals
     visibility = np.zeros((len(points), len(lights)))
     for index, light in enumerate(lights):
-        rays = disc_directions(light.direction, light.angle, 1 if light.angle == 0 else
-                               int(rays_per_light))
+        rays = disc_directions(light.direction, light.angle, 1 if light.angle == 0 else int(rays_per_light))
         facing = np.flatnonzero(matmul_serial(normals, light.direction) > 0.0)
         step = max(1, CHUNK_RAYS // len(rays))
         for start in range(0, len(facing), step):
@@ -117,9 +122,10 @@ def light_visibility(points: npt.ArrayLike, normals: npt.ArrayLike, lights: Sequ
             which, ray = np.nonzero(above)
             free = np.zeros(above.shape)
             if which.size:
-                blocked = np.asarray(occluder.occluded(
-                    origins[chosen][which].astype(np.float32),
-                    rays[ray].astype(np.float32)), dtype=bool)
+                blocked = np.asarray(
+                    occluder.occluded(origins[chosen][which].astype(np.float32), rays[ray].astype(np.float32)),
+                    dtype=bool,
+                )
                 free[which, ray] = ~blocked
             visibility[chosen, index] = free.mean(axis=1)
     return visibility

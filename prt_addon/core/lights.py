@@ -135,8 +135,11 @@ def _is_real(value):
 def _check_arguments(threshold, max_lights, min_share):
     if not _is_real(min_share) or not 0.0 <= min_share <= 1.0:
         raise ValueError(f"min_share must be a number from 0 to 1, got {min_share!r}")
-    if isinstance(max_lights, bool) or not isinstance(max_lights, (int, np.integer)) \
-            or not 0 <= max_lights <= MAX_LIGHTS:
+    if (
+        isinstance(max_lights, bool)
+        or not isinstance(max_lights, (int, np.integer))
+        or not 0 <= max_lights <= MAX_LIGHTS
+    ):
         raise ValueError(f"max_lights must be an integer 0..{MAX_LIGHTS}, got {max_lights!r}")
     if threshold is not None and not (_is_real(threshold) and 0 <= threshold < np.inf):
         raise ValueError(f"threshold must be finite and >= 0 (or None), got {threshold!r}")
@@ -164,8 +167,7 @@ def _sphere_neighbour_pairs(flat, height, width):
             hit = flat[found] == wanted
         sources.append(inside[hit])
         targets.append(found[hit])
-    for lo, hi in ((0, np.searchsorted(flat, width)),
-                   (np.searchsorted(flat, (height - 1) * width), len(flat))):
+    for lo, hi in ((0, np.searchsorted(flat, width)), (np.searchsorted(flat, (height - 1) * width), len(flat))):
         chain = np.arange(lo, max(lo, hi - 1))
         sources.append(chain)
         targets.append(chain + 1)
@@ -186,8 +188,7 @@ def _connected_components(count, sources, targets):
         if not apart.any():
             break
         sources, targets = sources[apart], targets[apart]
-        parent[np.maximum(root_s[apart], root_t[apart])] = np.minimum(root_s[apart],
-                                                                      root_t[apart])
+        parent[np.maximum(root_s[apart], root_t[apart])] = np.minimum(root_s[apart], root_t[apart])
         while True:
             grand = parent[parent]
             if np.array_equal(grand, parent):
@@ -199,8 +200,9 @@ def _connected_components(count, sources, targets):
     return index[parent], len(roots)
 
 
-def extract_lights(pixels: npt.ArrayLike, threshold: float | None = None, max_lights: int = 4, *,
-                   min_share: float = MIN_SHARE) -> tuple[np.ndarray, list[Light]]:
+def extract_lights(
+    pixels: npt.ArrayLike, threshold: float | None = None, max_lights: int = 4, *, min_share: float = MIN_SHARE
+) -> tuple[np.ndarray, list[Light]]:
     """Split the compact bright sources of an equirect image: -> (residual (H, W, 3), [Light]).
 
     Texels with luminance above T (threshold, or auto_threshold) are scaled to luminance T
@@ -239,20 +241,28 @@ def extract_lights(pixels: npt.ArrayLike, threshold: float | None = None, max_li
     excess = bright - kept_values
     texel_solid = solid[rows]
     # Per texel: RGB power excess * Omega, first moment lum_excess * integral(d dOmega), Omega.
-    columns = np.column_stack([
-        excess * texel_solid[:, None],
-        _luma(excess)[:, None] * np.stack([2.0 * np.sin(half) * cos2[rows] * np.cos(phi[cols]),
-                                           2.0 * np.sin(half) * cos2[rows] * np.sin(phi[cols]),
-                                           2.0 * half * sincos[rows]], axis=1),
-        texel_solid])
+    columns = np.column_stack(
+        [
+            excess * texel_solid[:, None],
+            _luma(excess)[:, None]
+            * np.stack(
+                [
+                    2.0 * np.sin(half) * cos2[rows] * np.cos(phi[cols]),
+                    2.0 * np.sin(half) * cos2[rows] * np.sin(phi[cols]),
+                    2.0 * half * sincos[rows],
+                ],
+                axis=1,
+            ),
+            texel_solid,
+        ]
+    )
     region, count = _connected_components(len(flat), *_sphere_neighbour_pairs(flat, height, width))
     sums = np.stack([np.bincount(region, weights=c, minlength=count) for c in columns.T], axis=1)
     region_power, region_moment, region_solid = sums[:, :3], sums[:, 3:6], sums[:, 6]
     region_lum = _luma(region_power)
     region_texels = np.bincount(region, minlength=count)
     moment_length = np.sqrt(np.einsum("ij,ij->i", region_moment, region_moment))
-    usable = ((region_lum > 0.0) & (region_lum >= min_share * world_power)
-              & (moment_length > 1e-12 * region_lum))
+    usable = (region_lum > 0.0) & (region_lum >= min_share * world_power) & (moment_length > 1e-12 * region_lum)
     ranked = np.argsort(-region_lum, kind="stable")
     chosen = ranked[usable[ranked]][:max_lights]
 
@@ -262,9 +272,15 @@ def extract_lights(pixels: npt.ArrayLike, threshold: float | None = None, max_li
     lights = []
     for r in chosen:
         rho = min(1.0, moment_length[r] / region_lum[r])
-        lights.append(Light(direction=region_moment[r] / moment_length[r], power=region_power[r],
-                            angle=2.0 * np.arcsin(np.sqrt(1.0 - rho)),
-                            solid_angle=float(region_solid[r]), texels=int(region_texels[r])))
+        lights.append(
+            Light(
+                direction=region_moment[r] / moment_length[r],
+                power=region_power[r],
+                angle=2.0 * np.arcsin(np.sqrt(1.0 - rho)),
+                solid_angle=float(region_solid[r]),
+                texels=int(region_texels[r]),
+            )
+        )
     return residual, lights
 
 
@@ -278,15 +294,23 @@ def lights_from_array(values: npt.ArrayLike) -> list[Light]:
     """Inverse of lights_to_array. solid_angle is the disc's 2 pi (1 - cos angle); texels 0."""
     values = np.asarray(values, dtype=np.float64).ravel()
     if values.size % FLOATS_PER_LIGHT or not np.all(np.isfinite(values)):
-        raise ValueError(f"stored lights must be finite, {FLOATS_PER_LIGHT} floats per light "
-                         f"(got {values.size} values)")
+        raise ValueError(
+            f"stored lights must be finite, {FLOATS_PER_LIGHT} floats per light (got {values.size} values)"
+        )
     lights = []
     for row in values.reshape(-1, FLOATS_PER_LIGHT):
         length = np.linalg.norm(row[:3])
         if length == 0.0 or row[6] < 0.0:
             raise ValueError("a stored light has a zero direction or a negative angle")
-        lights.append(Light(direction=row[:3] / length, power=row[3:6], angle=row[6],
-                            solid_angle=2.0 * np.pi * (1.0 - np.cos(row[6])), texels=0))
+        lights.append(
+            Light(
+                direction=row[:3] / length,
+                power=row[3:6],
+                angle=row[6],
+                solid_angle=2.0 * np.pi * (1.0 - np.cos(row[6])),
+                texels=0,
+            )
+        )
     return lights
 
 
@@ -294,6 +318,13 @@ def rotate_lights(lights: Iterable[Light], rotation: npt.ArrayLike) -> list[Ligh
     """Lights with direction R @ direction (R maps the image frame to the world frame, like the
     rotation applied to the world's SH)."""
     rotation = np.asarray(rotation, dtype=np.float64).reshape(3, 3)
-    return [Light(direction=rotation @ light.direction, power=light.power.copy(),
-                  angle=light.angle, solid_angle=light.solid_angle, texels=light.texels)
-            for light in lights]
+    return [
+        Light(
+            direction=rotation @ light.direction,
+            power=light.power.copy(),
+            angle=light.angle,
+            solid_angle=light.solid_angle,
+            texels=light.texels,
+        )
+        for light in lights
+    ]

@@ -14,8 +14,9 @@ import numpy.typing as npt
 from .serial_blas import matmul_serial
 
 
-def triangulate_quads(corner_verts: np.ndarray, starts: np.ndarray, sizes: np.ndarray,
-                      positions: npt.ArrayLike) -> np.ndarray:
+def triangulate_quads(
+    corner_verts: np.ndarray, starts: np.ndarray, sizes: np.ndarray, positions: npt.ArrayLike
+) -> np.ndarray:
     """Vertex triangles of faces of 3 or 4 corners, as Blender's mesh tessellation
     (blenkernel mesh_tessellate.cc): a triangle is (0, 1, 2); a quad is (0, 1, 2), (0, 2, 3),
     or (0, 1, 3), (1, 2, 3) when the first split folds over (blenlib's
@@ -96,9 +97,7 @@ class BakePoints:
 
 def vertex_points(matrix4: npt.ArrayLike, positions: npt.ArrayLike, normals: npt.ArrayLike) -> BakePoints:
     """POINT-domain BakePoints: one point per vertex, in order."""
-    return BakePoints(
-        "POINT", transform_points(matrix4, positions), transform_normals(matrix4, normals), None
-    )
+    return BakePoints("POINT", transform_points(matrix4, positions), transform_normals(matrix4, normals), None)
 
 
 # Corner normals of one vertex that differ by at most this much in every component count as
@@ -107,8 +106,9 @@ def vertex_points(matrix4: npt.ArrayLike, positions: npt.ArrayLike, normals: npt
 NORMAL_TOLERANCE = 1e-6
 
 
-def vertex_normal_pairs(corner_verts: np.ndarray, corner_normals: npt.ArrayLike,
-                        vertex_count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def vertex_normal_pairs(
+    corner_verts: np.ndarray, corner_normals: npt.ArrayLike, vertex_count: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The unique (vertex, normal) pairs of a mesh's corners: (vertex index, normal, inverse),
     sorted by vertex, with inverse mapping each corner to its pair. Corner normals within
     NORMAL_TOLERANCE of their vertex's reference normal (one of its corners') are that normal."""

@@ -20,8 +20,13 @@ class LazyOccluder:
     """The real occluder, built on the first query or in the background after start() (the
     scene's Embree occluder: its build overlaps the job's set-up); queries wait for the build."""
 
-    def __init__(self, backend: str, vertices: npt.ArrayLike, triangles: npt.ArrayLike,
-                 builders: Mapping[str, Callable[..., Any]]) -> None:
+    def __init__(
+        self,
+        backend: str,
+        vertices: npt.ArrayLike,
+        triangles: npt.ArrayLike,
+        builders: Mapping[str, Callable[..., Any]],
+    ) -> None:
         self.name = backend
         self._builder = builders[backend]
         self.max_threads = int(getattr(self._builder, "max_threads", 1))

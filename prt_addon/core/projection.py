@@ -56,6 +56,7 @@ class PixelReport:
 
     def in_words(self) -> str:
         """The repair as a user reads it: what was wrong with the image and what was done."""
+
         def values(n):
             return f"{n:,} HDRI value was" if n == 1 else f"{n:,} HDRI values were"
 
@@ -69,10 +70,7 @@ class PixelReport:
     def summary(self) -> str:
         if not self.repaired:
             return "all pixels finite and non-negative"
-        return (
-            f"{self.nan} NaN and {self.inf} infinite values set to 0, "
-            f"{self.negative} negative values clamped to 0"
-        )
+        return f"{self.nan} NaN and {self.inf} infinite values set to 0, {self.negative} negative values clamped to 0"
 
 
 def row_elevations(height: int) -> tuple[np.ndarray, np.ndarray]:
@@ -99,9 +97,7 @@ def pixel_directions(height: int, width: int) -> np.ndarray:
     phi = column_azimuths(width)
     cos_e = np.cos(elevation)[:, None]
     return np.stack(
-        np.broadcast_arrays(
-            cos_e * np.cos(phi)[None, :], cos_e * np.sin(phi)[None, :], np.sin(elevation)[:, None]
-        ),
+        np.broadcast_arrays(cos_e * np.cos(phi)[None, :], cos_e * np.sin(phi)[None, :], np.sin(elevation)[:, None]),
         axis=-1,
     )
 

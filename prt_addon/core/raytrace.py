@@ -67,8 +67,9 @@ class EmbreeOccluder:
     name = "EMBREE"
     max_threads = 16
 
-    def __init__(self, vertices: npt.ArrayLike, triangles: npt.ArrayLike, robust: bool = False,
-                 shared: bool = True) -> None:
+    def __init__(
+        self, vertices: npt.ArrayLike, triangles: npt.ArrayLike, robust: bool = False, shared: bool = True
+    ) -> None:
         if not EMBREE_AVAILABLE:
             raise RuntimeError(f"embreex is not available ({EMBREE_IMPORT_ERROR})")
         v, t = as_triangles(vertices, triangles)
@@ -102,8 +103,7 @@ def bounding_box(vertices: npt.ArrayLike) -> np.ndarray:
     """(2, 3) float64 [min, max] of (V, 3) points."""
     v = np.asarray(vertices).reshape(-1, 3)
     # Column by column: numpy reduces an (n, 3) array along axis 0 about 20 times slower.
-    return np.array([[v[:, i].min() for i in range(3)], [v[:, i].max() for i in range(3)]],
-                    dtype=np.float64)
+    return np.array([[v[:, i].min() for i in range(3)], [v[:, i].max() for i in range(3)]], dtype=np.float64)
 
 
 def box_can_occlude(points: npt.ArrayLike, normals: npt.ArrayLike, boxes: npt.ArrayLike) -> np.ndarray:
@@ -115,8 +115,7 @@ def box_can_occlude(points: npt.ArrayLike, normals: npt.ArrayLike, boxes: npt.Ar
     n = np.asarray(normals, dtype=np.float64)
     centre = 0.5 * (boxes[:, 0] + boxes[:, 1])
     half = 0.5 * (boxes[:, 1] - boxes[:, 0])
-    height = (matmul_serial(n, centre.T) + matmul_serial(np.abs(n), half.T)
-              - np.einsum("ij,ij->i", p, n)[:, None])
+    height = matmul_serial(n, centre.T) + matmul_serial(np.abs(n), half.T) - np.einsum("ij,ij->i", p, n)[:, None]
     return (height > 0.0).any(axis=1)
 
 
@@ -200,9 +199,7 @@ def is_closed_convex(vertices: npt.ArrayLike, triangles: npt.ArrayLike, rel_tol:
     # Corner angles.
     e1 = v[b] - v[a]
     e2 = v[opposite] - v[a]
-    cos = np.einsum("ij,ij->i", e1, e2) / np.maximum(
-        np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1), 1e-300
-    )
+    cos = np.einsum("ij,ij->i", e1, e2) / np.maximum(np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1), 1e-300)
     angles = np.arccos(np.clip(cos, -1.0, 1.0))
     angle_sum = np.bincount(a, weights=angles, minlength=n_vert)[used]
     return bool(np.all(angle_sum <= 2.0 * np.pi + 1e-6))

@@ -80,9 +80,7 @@ def row_matrix(height: int, height_out: int) -> np.ndarray:
     return a / a.sum(axis=1, keepdims=True)
 
 
-def reduce_equirect(
-    pixels: npt.ArrayLike, height_out: int, width_out: int
-) -> tuple[np.ndarray, PixelReport, float]:
+def reduce_equirect(pixels: npt.ArrayLike, height_out: int, width_out: int) -> tuple[np.ndarray, PixelReport, float]:
     """Reduce an (H, W, C) equirect image (row 0 at the bottom) to (H_out, W_out, 3) float64.
 
     Returns (reduced, report, energy): report counts the repaired source values, energy is the

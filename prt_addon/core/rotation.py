@@ -202,8 +202,4 @@ def axis_angle_matrix(axis: npt.ArrayLike, angle: float) -> np.ndarray:
 def euler_xyz_matrix(angles: npt.ArrayLike) -> np.ndarray:
     """3x3 matrix of Blender's 'XYZ' Euler rotation (applied X first, then Y, then Z): Rz Ry Rx."""
     x, y, z = (float(a) for a in angles)
-    return (
-        axis_angle_matrix((0, 0, 1), z)
-        @ axis_angle_matrix((0, 1, 0), y)
-        @ axis_angle_matrix((1, 0, 0), x)
-    )
+    return axis_angle_matrix((0, 0, 1), z) @ axis_angle_matrix((0, 1, 0), y) @ axis_angle_matrix((1, 0, 0), x)

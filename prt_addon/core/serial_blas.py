@@ -18,8 +18,9 @@ BLAS_SERIAL_MNK = 1 << 18  # gemm: threaded above m * n * k = 2^18
 BLAS_SERIAL_GEMV = 9216  # gemv: threaded from m * n = 9216
 
 
-def matmul_serial(a: npt.ArrayLike, b: npt.ArrayLike, out: np.ndarray | None = None,
-                  accumulate: bool = False) -> np.ndarray:
+def matmul_serial(
+    a: npt.ArrayLike, b: npt.ArrayLike, out: np.ndarray | None = None, accumulate: bool = False
+) -> np.ndarray:
     """a @ b (or out += a @ b) for 2-D a and 2-D or 1-D b, in blocks small enough for a serial
     BLAS call. Returns out (for a 1-D b, a 1-D view of it)."""
     a = np.asarray(a)

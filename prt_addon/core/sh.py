@@ -65,9 +65,7 @@ def normalize_directions(directions: npt.ArrayLike) -> np.ndarray:
     big = np.max(np.abs(d), axis=1)
     bad = ~np.isfinite(big) | (big == 0.0)
     if bad.any():
-        raise ValueError(
-            f"{int(bad.sum())} of {len(d)} directions are zero-length or not finite"
-        )
+        raise ValueError(f"{int(bad.sum())} of {len(d)} directions are zero-length or not finite")
     d = d / big[:, None]
     return d / np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
 

@@ -65,7 +65,7 @@ from .serial_blas import matmul_serial
 from .contact import inward_tangents
 from .frames import frame_rotation, to_local_frame  # noqa: F401 - the transfer's frame, used beside it
 from .mesh import unit_normals
-from .transfer_stats import TransferResult, TransferStats, error_calibration, error_groups
+from .transfer_stats import Cancelled, TransferResult, TransferStats, error_calibration, error_groups
 
 CHUNK_RAYS = 1 << 18
 SLICES_PER_THREAD = 4  # slices per step() and thread
@@ -75,10 +75,6 @@ SLICES_PER_THREAD = 4  # slices per step() and thread
 # tiled directions table (16, shared by the threads). Checked with tracemalloc in
 # tests/test_transfer.py.
 RAY_BYTES = 80
-
-
-class Cancelled(Exception):
-    """Raised by TransferComputation.run() when cancel() was called."""
 
 
 # Ray origins and directions are kept as rows of four float32 (x, y, z, 0) viewed as one 16-byte
@@ -116,12 +112,22 @@ class TransferComputation:
     in its plane (docs/bake.md, "Contacts").
     """
 
-    def __init__(self, positions: npt.ArrayLike, normals: npt.ArrayLike, directions: DirectionSet, order: int,
-                 occluder: Any = None, offset: npt.ArrayLike = 0.0,
-                 self_occludes: npt.ArrayLike = True, other_boxes: npt.ArrayLike | None = None,
-                 chunk_rays: int = CHUNK_RAYS, threads: int = 2, pool: ThreadPoolExecutor | None = None,
-                 surface: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
-                 point_vertex: npt.ArrayLike | None = None) -> None:
+    def __init__(
+        self,
+        positions: npt.ArrayLike,
+        normals: npt.ArrayLike,
+        directions: DirectionSet,
+        order: int,
+        occluder: Any = None,
+        offset: npt.ArrayLike = 0.0,
+        self_occludes: npt.ArrayLike = True,
+        other_boxes: npt.ArrayLike | None = None,
+        chunk_rays: int = CHUNK_RAYS,
+        threads: int = 2,
+        pool: ThreadPoolExecutor | None = None,
+        surface: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
+        point_vertex: npt.ArrayLike | None = None,
+    ) -> None:
         if not isinstance(directions, DirectionSet):
             raise TypeError("directions must be a DirectionSet (core.directions.make_directions)")
         self.order = check_order(order)
@@ -147,8 +153,7 @@ class TransferComputation:
         offset = np.broadcast_to(np.asarray(offset, dtype=np.float64), (count,))
         lift = self.normals
         if surface is not None:
-            lift = lift + inward_tangents(self.positions, self.normals, surface[0], surface[1],
-                                          point_vertex)
+            lift = lift + inward_tangents(self.positions, self.normals, surface[0], surface[1], point_vertex)
         self.origins16 = _rays16(self.positions + offset[:, None] * lift)
         self.self_occludes = np.broadcast_to(np.asarray(self_occludes, dtype=bool), (count,))
         self.other_boxes = None if other_boxes is None else np.asarray(other_boxes, np.float64).reshape(-1, 2, 3)
@@ -382,9 +387,13 @@ class TransferComputation:
         return self.result()
 
 
-def compute_transfer(positions: npt.ArrayLike, normals: npt.ArrayLike, directions: DirectionSet, order: int,
-                     occluder: Any = None, **kwargs: Any) -> TransferResult:
+def compute_transfer(
+    positions: npt.ArrayLike,
+    normals: npt.ArrayLike,
+    directions: DirectionSet,
+    order: int,
+    occluder: Any = None,
+    **kwargs: Any,
+) -> TransferResult:
     """(P, n*n) float32 transfer vectors, per-point error estimates and stats (TransferResult)."""
     return TransferComputation(positions, normals, directions, order, occluder, **kwargs).run()
-
-

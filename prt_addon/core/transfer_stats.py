@@ -8,6 +8,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 
+class Cancelled(Exception):
+    """Raised by TransferComputation.run() when cancel() was called."""
+
+
 @dataclass
 class TransferStats:
     points: int = 0
@@ -26,8 +30,14 @@ class TransferStats:
 
     def add(self, other: TransferStats) -> TransferStats:
         for name in (
-            "points", "candidate_rays", "rays_traced", "skipped_below_horizon",
-            "skipped_unoccludable", "skipped_shadows_off", "occluded_rays", "seconds",
+            "points",
+            "candidate_rays",
+            "rays_traced",
+            "skipped_below_horizon",
+            "skipped_unoccludable",
+            "skipped_shadows_off",
+            "occluded_rays",
+            "seconds",
             "trace_seconds",
         ):
             setattr(self, name, getattr(self, name) + getattr(other, name))

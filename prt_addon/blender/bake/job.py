@@ -19,8 +19,7 @@ from ...core.occluders import LazyOccluder
 from .. import mesh_read, storage
 from ..bvh_backend import BVHTreeOccluder
 from .scene import check_object, scene_parts
-from .settings import (BakeError, BakeReport, BakeSettings, blender_threads, fallback_note,
-                       resolve_backend)
+from .settings import BakeError, BakeReport, BakeSettings, blender_threads, fallback_note, resolve_backend
 
 # The ray-tracing backends, injected into the core's lazily built occluder.
 BUILDERS = {"EMBREE": raytrace.EmbreeOccluder, "BVHTREE": BVHTreeOccluder}
@@ -33,7 +32,8 @@ class BakeJob:
         self.settings = (settings or BakeSettings()).validate()
         self.started = time.perf_counter()
         self.report = BakeReport(
-            order=self.settings.order, samples=self.settings.samples,
+            order=self.settings.order,
+            samples=self.settings.samples,
             direction_set=self.settings.direction_set,
         )
         self._cancel = False
@@ -66,8 +66,7 @@ class BakeJob:
             scene = self._occluder
             if scene is not None and any(self._may_trace(p) for p in self.plans if p.occluder is scene):
                 scene.start(self._pool)
-            self.directions = make_directions(self.settings.direction_set, self.settings.samples,
-                                              self.settings.seed)
+            self.directions = make_directions(self.settings.direction_set, self.settings.samples, self.settings.seed)
             # The first object's slices start as soon as its points are ready: they trace while
             # the other objects' points are read.
             for index, plan in enumerate(self.plans):
@@ -106,8 +105,7 @@ class BakeJob:
             occluder, boxes = None, None
             if s.shadows:
                 if s.self_shadow_only:
-                    occluder = LazyOccluder(self.backend, plan.own_vertices, plan.own_triangles,
-                                            BUILDERS)
+                    occluder = LazyOccluder(self.backend, plan.own_vertices, plan.own_triangles, BUILDERS)
                     boxes = np.zeros((0, 2, 3))
                 else:
                     occluder = scene_occluder
@@ -126,10 +124,19 @@ class BakeJob:
         # ground) do not slip under it (docs/bake.md, "Contacts"). Unshadowed: not needed.
         surface = None if plan.occluder is None else (plan.own_vertices, plan.own_triangles)
         return transfer.TransferComputation(
-            plan.points.positions, plan.points.normals, self.directions, s.order,
-            occluder=plan.occluder, offset=plan.offset, self_occludes=plan.self_occludes,
-            other_boxes=plan.boxes, chunk_rays=s.chunk_rays, threads=s.threads, pool=self._pool,
-            surface=surface, point_vertex=plan.points.vertex,
+            plan.points.positions,
+            plan.points.normals,
+            self.directions,
+            s.order,
+            occluder=plan.occluder,
+            offset=plan.offset,
+            self_occludes=plan.self_occludes,
+            other_boxes=plan.boxes,
+            chunk_rays=s.chunk_rays,
+            threads=s.threads,
+            pool=self._pool,
+            surface=surface,
+            point_vertex=plan.points.vertex,
         )
 
     def close(self):
@@ -158,9 +165,9 @@ class BakeJob:
                     if self._cancel:
                         raise transfer.Cancelled()
                     more = comp.step()
-                    yield self.fraction, (
-                        f"Baking '{plan.name}' ({index + 1}/{len(self.plans)}): "
-                        f"{100.0 * self.fraction:.0f} %"
+                    yield (
+                        self.fraction,
+                        (f"Baking '{plan.name}' ({index + 1}/{len(self.plans)}): {100.0 * self.fraction:.0f} %"),
                     )
                     if not more:
                         break
@@ -241,14 +248,27 @@ class BakeJob:
         return self.finish()
 
 
-def bake(objects, order=4, samples=256, shadows=True, backend="AUTO", direction_set="FIBONACCI",
-         seed=0, self_shadow_only=False, progress=None, cull=True, depsgraph=None,
-         chunk_rays=transfer.CHUNK_RAYS, threads=None):
+def bake(
+    objects,
+    order=4,
+    samples=256,
+    shadows=True,
+    backend="AUTO",
+    direction_set="FIBONACCI",
+    seed=0,
+    self_shadow_only=False,
+    progress=None,
+    cull=True,
+    depsgraph=None,
+    chunk_rays=transfer.CHUNK_RAYS,
+    threads=None,
+):
     """Bake and write; returns a BakeReport. Raises BakeError when nothing can be baked."""
     if objects is not None and isinstance(objects, bpy.types.Object):
         objects = [objects]
-    settings = BakeSettings(order, samples, direction_set, seed, shadows, self_shadow_only,
-                            backend, cull, chunk_rays, threads)
+    settings = BakeSettings(
+        order, samples, direction_set, seed, shadows, self_shadow_only, backend, cull, chunk_rays, threads
+    )
     job = BakeJob(objects, settings, depsgraph)
     return job.run(progress)
 

@@ -7,10 +7,8 @@ sky left in SH is smooth and order 4 reaches a few percent.
 
 PRESETS = {
     "DRAFT": ("Draft", "Order 2, 64 directions: a quick look at soft shadows", 2, 64),
-    "GOOD": ("Good", "Order 4, 256 directions: the default, a few percent from Cycles with the "
-             "light split", 4, 256),
-    "FINAL": ("Final", "Order 8, 512 directions: the finest soft shadows, slower to bake and draw",
-              8, 512),
+    "GOOD": ("Good", "Order 4, 256 directions: the default, a few percent from Cycles with the light split", 4, 256),
+    "FINAL": ("Final", "Order 8, 512 directions: the finest soft shadows, slower to bake and draw", 8, 512),
 }
 
 

@@ -25,8 +25,15 @@ _running = set()  # operators with a live timer, removed in unregister_extra()
 
 
 _NAVIGATION = {
-    "MIDDLEMOUSE", "WHEELUPMOUSE", "WHEELDOWNMOUSE", "MOUSEMOVE", "INBETWEEN_MOUSEMOVE",
-    "TRACKPADPAN", "TRACKPADZOOM", "MOUSEROTATE", "NDOF_MOTION",
+    "MIDDLEMOUSE",
+    "WHEELUPMOUSE",
+    "WHEELDOWNMOUSE",
+    "MOUSEMOVE",
+    "INBETWEEN_MOUSEMOVE",
+    "TRACKPADPAN",
+    "TRACKPADZOOM",
+    "MOUSEROTATE",
+    "NDOF_MOTION",
 }
 
 

@@ -41,11 +41,17 @@ class BakeSettings:
     threads: int = None  # None: Blender's own setting (Render > Performance > Threads)
 
     def validate(self):
-        if isinstance(self.order, bool) or not isinstance(self.order, (int, np.integer)) \
-                or not 1 <= self.order <= MAX_ORDER:
+        if (
+            isinstance(self.order, bool)
+            or not isinstance(self.order, (int, np.integer))
+            or not 1 <= self.order <= MAX_ORDER
+        ):
             raise BakeError(f"order must be an integer from 1 to {MAX_ORDER}, got {self.order!r}")
-        if isinstance(self.samples, bool) or not isinstance(self.samples, (int, np.integer)) \
-                or self.samples < MIN_SAMPLES:
+        if (
+            isinstance(self.samples, bool)
+            or not isinstance(self.samples, (int, np.integer))
+            or self.samples < MIN_SAMPLES
+        ):
             raise BakeError(f"samples must be an integer >= {MIN_SAMPLES}, got {self.samples!r}")
         self.direction_set = str(self.direction_set).upper()
         if self.direction_set not in KINDS:
@@ -56,11 +62,9 @@ class BakeSettings:
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
             raise BakeError(f"seed must be an integer >= 0, got {self.seed!r}")
         if self.threads is not None and (
-            isinstance(self.threads, bool) or not isinstance(self.threads, (int, np.integer))
-            or self.threads < 1
+            isinstance(self.threads, bool) or not isinstance(self.threads, (int, np.integer)) or self.threads < 1
         ):
-            raise BakeError(f"threads must be None (Blender's setting) or an integer >= 1, "
-                            f"got {self.threads!r}")
+            raise BakeError(f"threads must be None (Blender's setting) or an integer >= 1, got {self.threads!r}")
         self.order, self.samples, self.seed = int(self.order), int(self.samples), int(self.seed)
         return self
 
@@ -100,17 +104,18 @@ class BakeReport:
         """One line: what was baked, how long, how many rays, how far from converged."""
         if not self.ok:
             return self.message or ("Bake cancelled" if self.cancelled else "Bake failed")
-        return (f"Baked {len(self.objects)} object(s) in {self.seconds:.2f} s ({self.backend}), "
-                f"{self.rays_traced:,} rays, error estimate "
-                f"{100.0 * self.error_estimate_relative:.2f} %")
+        return (
+            f"Baked {len(self.objects)} object(s) in {self.seconds:.2f} s ({self.backend}), "
+            f"{self.rays_traced:,} rays, error estimate "
+            f"{100.0 * self.error_estimate_relative:.2f} %"
+        )
 
     def report_lines(self):
         """The full report in words a user knows (the sidebar's Report panel)."""
         if not self.ok:
             lines = [self.headline()]
         else:
-            engine = {"EMBREE": "Embree", "BVHTREE": "Blender's BVH tree"}.get(
-                self.backend, "no ray needed tracing")
+            engine = {"EMBREE": "Embree", "BVHTREE": "Blender's BVH tree"}.get(self.backend, "no ray needed tracing")
             lines = [
                 f"Baked {len(self.objects)} object(s): {', '.join(self.objects)}",
                 f"Time: {self.seconds:.2f} s, rays traced with {engine}",
@@ -138,8 +143,7 @@ class BakeReport:
                 f"Rays traced {self.rays_traced:,}, skipped {self.rays_skipped:,}",
                 f"  below horizon {self.skipped_below_horizon:,}, nothing to occlude "
                 f"{self.skipped_unoccludable:,}, shadows off {self.skipped_shadows_off:,}",
-                f"Error estimate {self.error_estimate:.2e} "
-                f"({100.0 * self.error_estimate_relative:.2f} % of |t|)",
+                f"Error estimate {self.error_estimate:.2e} ({100.0 * self.error_estimate_relative:.2f} % of |t|)",
             ]
         if self.note:
             lines.append(self.note)
@@ -153,8 +157,10 @@ FALLBACK_SLOWDOWN = "30 to 40"
 
 def fallback_note():
     """The sentence shown when Auto falls back to the BVH tree because embreex does not import."""
-    return (f"Embree (embreex) is not available on this system ({raytrace.EMBREE_IMPORT_ERROR}): "
-            f"the slower BVH tree fallback was used (about {FALLBACK_SLOWDOWN} times slower, one thread)")
+    return (
+        f"Embree (embreex) is not available on this system ({raytrace.EMBREE_IMPORT_ERROR}): "
+        f"the slower BVH tree fallback was used (about {FALLBACK_SLOWDOWN} times slower, one thread)"
+    )
 
 
 def resolve_backend(requested):

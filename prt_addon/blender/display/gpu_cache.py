@@ -88,8 +88,9 @@ def element_normals(mesh, domain):
     return mesh_read.read_vertex_normals(mesh)
 
 
-def build_mesh_entry(mesh, info, key, albedo_mode="MATERIAL", albedo_attr="", positions=None,
-                     evaluated=None, normals=None):
+def build_mesh_entry(
+    mesh, info, key, albedo_mode="MATERIAL", albedo_attr="", positions=None, evaluated=None, normals=None
+):
     """Upload a baked mesh: vertex buffer per element, index buffers per material, transfer.
     key: its _cache_key; positions: (vertices, 3) local positions to draw instead of the mesh's
     (deformed_mesh), with normals their (elements, 3) normals; evaluated: the evaluated positions
@@ -150,9 +151,7 @@ def _transfer_texture(transfer, count):
     per_row = max(1, min(max_size // count, n))
     rows = max(1, -(-n // per_row))
     if rows > max_size:
-        raise RuntimeError(
-            f"{n} elements at {count} texels each exceed one {max_size}x{max_size} texture"
-        )
+        raise RuntimeError(f"{n} elements at {count} texels each exceed one {max_size}x{max_size} texture")
     data = np.zeros((rows * per_row * count, 4), dtype=np.float32)
     data[: n * count] = transfer.reshape(n * count, 4)
     buf = gpu.types.Buffer("FLOAT", data.size, data.reshape(-1))
@@ -169,9 +168,7 @@ def get_mesh_entry(mesh, info, albedo_mode, albedo_attr, obj=None, depsgraph=Non
     ptr = (mesh.as_pointer(), 0 if positions is None else obj.as_pointer())
     key = _cache_key(mesh, info, albedo_mode, albedo_attr)
     entry = _mesh_cache.get(ptr)
-    if entry is None or entry.key != key or (
-        positions is not None and not np.array_equal(entry.evaluated, positions)
-    ):
+    if entry is None or entry.key != key or (positions is not None and not np.array_equal(entry.evaluated, positions)):
         drawn, normals = positions, None
         # Same counts but other connectivity (e.g. a Sort Elements node): the baked elements
         # are not these, so draw the undeformed mesh.

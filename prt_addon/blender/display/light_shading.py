@@ -27,8 +27,9 @@ def _occluder(kind, vertices, triangles):
     cached = _occluders.get(kind)
     if cached is not None and cached[0] == key:
         return cached[1]
-    occluder = BUILDERS[backend](np.ascontiguousarray(vertices, dtype=np.float32),
-                                 np.ascontiguousarray(triangles, dtype=np.int32))
+    occluder = BUILDERS[backend](
+        np.ascontiguousarray(vertices, dtype=np.float32), np.ascontiguousarray(triangles, dtype=np.int32)
+    )
     _occluders[kind] = (key, occluder)
     return occluder
 
@@ -86,6 +87,7 @@ def light_radiance(obj, depsgraph, lights, info, rays_per_light=RAYS_PER_LIGHT):
     if shadows:
         occluder = scene_occluder(depsgraph, obj_eval if self_only else None)
         if occluder is not None:
-            visibility = core_lights.light_visibility(points, normals, lights, occluder,
-                                                      rays_per_light=rays_per_light, offset=offset)
+            visibility = core_lights.light_visibility(
+                points, normals, lights, occluder, rays_per_light=rays_per_light, offset=offset
+            )
     return core_lights.light_irradiance(normals, lights, visibility)

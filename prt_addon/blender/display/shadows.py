@@ -115,8 +115,14 @@ def geometry_signature(objects, depsgraph):
     parts = [_generation[0]]
     for obj in objects:
         mesh = _evaluated(obj, depsgraph)
-        parts.append((obj.as_pointer(), np.array(obj.matrix_world, dtype=np.float32).tobytes(),
-                      len(mesh.vertices), len(mesh.polygons)))
+        parts.append(
+            (
+                obj.as_pointer(),
+                np.array(obj.matrix_world, dtype=np.float32).tobytes(),
+                len(mesh.vertices),
+                len(mesh.polygons),
+            )
+        )
     return tuple(parts)
 
 
@@ -220,13 +226,16 @@ def update_shadow_maps(scene, lights, depsgraph=None, view_layer=None, resolutio
     if key != state.geometry_key:
         positions, triangles = caster_triangles(objects, depsgraph)
         state.batch = _build_batch(positions, triangles) if len(triangles) else None
-        state.box = (positions.min(axis=0).astype(np.float64), positions.max(axis=0).astype(np.float64)) \
-            if len(positions) else None
+        state.box = (
+            (positions.min(axis=0).astype(np.float64), positions.max(axis=0).astype(np.float64))
+            if len(positions)
+            else None
+        )
         state.geometry_key = key
     state.maps = [m for m in state.maps if m.resolution == resolution]
     while len(state.maps) < len(lights):
         state.maps.append(ShadowMap(resolution))
-    del state.maps[len(lights):]
+    del state.maps[len(lights) :]
     for light, shadow in zip(lights, state.maps):
         map_key = (key, np.asarray(light.direction, dtype=np.float64).tobytes())
         if shadow.key == map_key:

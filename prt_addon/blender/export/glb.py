@@ -18,7 +18,7 @@ def split(data):
     offset, chunks = 12, []
     while offset < length:
         size, kind = struct.unpack_from("<II", data, offset)
-        chunks.append((kind, bytes(data[offset + 8: offset + 8 + size])))
+        chunks.append((kind, bytes(data[offset + 8 : offset + 8 + size])))
         offset += 8 + size
     if not chunks or chunks[0][0] != CHUNK_JSON:
         raise ValueError("binary glTF file without a JSON chunk first")

@@ -82,8 +82,9 @@ def _plan(objects, scene):
             continue
         state = storage.bake_state(obj.data)
         if state.status == "STALE":
-            raise ExportError(f"'{obj.name}': the bake is stale ({state.reason}), so the export would not "
-                              f"match the mesh")
+            raise ExportError(
+                f"'{obj.name}': the bake is stale ({state.reason}), so the export would not match the mesh"
+            )
         plan.append((obj, state.bake if state.status == "FRESH" else None))
     if not any(bake is not None for _o, bake in plan):
         raise ExportError("nothing to export: none of the objects holds a PRT bake (bake them first)")
@@ -102,11 +103,13 @@ def world_extras(scene):
 
     lights = []
     for light in _lighting.world_lights(scene):
-        lights.append({
-            "direction": (BLENDER_TO_GLTF @ np.asarray(light.direction, dtype=np.float64)).tolist(),
-            "power": np.asarray(light.power, dtype=np.float64).tolist(),
-            "angle": float(light.angle),
-        })
+        lights.append(
+            {
+                "direction": (BLENDER_TO_GLTF @ np.asarray(light.direction, dtype=np.float64)).tolist(),
+                "power": np.asarray(light.power, dtype=np.float64).tolist(),
+                "angle": float(light.angle),
+            }
+        )
     n = int(round(np.sqrt(coeffs.shape[0])))
     return {
         "version": FORMAT_VERSION,
@@ -116,7 +119,8 @@ def world_extras(scene):
         "coefficients": to_gltf_frame(coeffs).tolist(),
         "lights": lights,
         "mapping_rotation_euler_xyz": [float(a) for a in _nodes.mapping_rotation_euler(scene.world)]
-        if scene.world is not None else [0.0, 0.0, 0.0],
+        if scene.world is not None
+        else [0.0, 0.0, 0.0],
         "blender_sh_rotation": _world.current_rotation(scene).tolist(),
     }
 
@@ -147,7 +151,7 @@ def _add_attributes(mesh, bake, added):
             raise ExportError(f"mesh '{mesh.name}' already has an attribute '{name}'; rename it to export")
         added.append(name)
         mesh.attributes.new(name, "FLOAT_COLOR", bake.domain)
-        mesh.attributes[name].data.foreach_set("color", np.ascontiguousarray(packed[:, 4 * k: 4 * k + 4]).ravel())
+        mesh.attributes[name].data.foreach_set("color", np.ascontiguousarray(packed[:, 4 * k : 4 * k + 4]).ravel())
 
 
 def _state(plan):
@@ -212,12 +216,20 @@ def _run_exporter(path, meshes):
     active_is_transfer = any(
         storage.is_transfer_attribute(m.color_attributes.active_color_name or "")
         or (m.color_attributes.active_color_name or "").startswith(ATTRIBUTE_PREFIX)
-        for m in meshes)
+        for m in meshes
+    )
     try:
         return bpy.ops.export_scene.gltf(
-            filepath=path, export_format="GLB", use_selection=True, export_attributes=True,
-            export_extras=True, export_yup=True, export_apply=False, export_animations=False,
-            export_all_vertex_colors=False, export_active_vertex_color_when_no_material=not active_is_transfer,
+            filepath=path,
+            export_format="GLB",
+            use_selection=True,
+            export_attributes=True,
+            export_extras=True,
+            export_yup=True,
+            export_apply=False,
+            export_animations=False,
+            export_all_vertex_colors=False,
+            export_active_vertex_color_when_no_material=not active_is_transfer,
         )
     except RuntimeError as error:
         raise ExportError(f"the glTF exporter failed: {error}") from None

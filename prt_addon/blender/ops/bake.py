@@ -12,8 +12,15 @@ from ..bake.settings import BakeError, BakeReport, BakeSettings
 def settings_from(group):
     """BakeSettings of a PRT_PG_bake_settings. (A module function: a method on the property
     group made bpy 4.2 crash at exit after register/unregister.)"""
-    return BakeSettings(group.order, group.samples, group.direction_set, group.seed, group.shadows,
-                        group.self_shadow_only, group.backend)
+    return BakeSettings(
+        group.order,
+        group.samples,
+        group.direction_set,
+        group.seed,
+        group.shadows,
+        group.self_shadow_only,
+        group.backend,
+    )
 
 
 class PRT_OT_bake_transfer(TimeSlicedRunner, bpy.types.Operator):
@@ -34,8 +41,9 @@ class PRT_OT_bake_transfer(TimeSlicedRunner, bpy.types.Operator):
         settings = settings_from(context.scene.prt_bake)
         try:
             if _running:
-                raise BakeError("a bake is already running: wait for it to finish, or press Esc "
-                                "to cancel it, then bake again")
+                raise BakeError(
+                    "a bake is already running: wait for it to finish, or press Esc to cancel it, then bake again"
+                )
             return BakeJob(context.selected_objects, settings, context.evaluated_depsgraph_get())
         except BakeError as exc:
             failed = BakeReport(message=f"Bake not started: {exc}")
@@ -56,7 +64,6 @@ class PRT_OT_bake_transfer(TimeSlicedRunner, bpy.types.Operator):
         _store_report(context.scene, report)
         _report_to_operator(self, report)
         return {"FINISHED"}
-
 
 
 class PRT_OT_bake_preset(bpy.types.Operator):

@@ -27,8 +27,7 @@ class PRT_OT_set_light_rotation(bpy.types.Operator):
             cls.poll_message_set("The scene has no World: add one in the World properties")
             return False
         if nodes.find_environment_node(context.scene.world) is None:
-            cls.poll_message_set("The world has no Environment Texture to rotate: "
-                                 "add an HDRI to the World first")
+            cls.poll_message_set("The world has no Environment Texture to rotate: add an HDRI to the World first")
             return False
         return True
 

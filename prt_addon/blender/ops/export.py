@@ -17,7 +17,8 @@ class PRT_OT_export_gltf(bpy.types.Operator, ExportHelper):
     filter_glob: bpy.props.StringProperty(default="*.glb", options={"HIDDEN"})
 
     selected_only: bpy.props.BoolProperty(
-        name="Selected Only", description="Export only the selected objects (else every baked mesh of the scene)",
+        name="Selected Only",
+        description="Export only the selected objects (else every baked mesh of the scene)",
         default=False,
     )
 

@@ -13,8 +13,11 @@ class PRT_OT_project_world(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     order: bpy.props.IntProperty(
-        name="Order", description="0: use the scene's World Lighting order",
-        default=0, min=0, max=world.MAX_ORDER,
+        name="Order",
+        description="0: use the scene's World Lighting order",
+        default=0,
+        min=0,
+        max=world.MAX_ORDER,
     )
 
     @classmethod
@@ -37,9 +40,12 @@ class PRT_OT_project_world(bpy.types.Operator):
             f"{100.0 * result.diffuse_truncation:.2g} % of the diffuse shading energy",
         )
         if result.split:
-            self.report({"INFO"}, f"{len(result.lights)} light(s) split off, "
-                        f"{100.0 * result.light_share:.0f} % of the world's light" if result.lights
-                        else "No compact bright source: no lights split off")
+            self.report(
+                {"INFO"},
+                f"{len(result.lights)} light(s) split off, {100.0 * result.light_share:.0f} % of the world's light"
+                if result.lights
+                else "No compact bright source: no lights split off",
+            )
         return {"FINISHED"}
 
 

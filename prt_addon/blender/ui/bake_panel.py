@@ -50,11 +50,15 @@ class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
         sub.prop(settings, "self_shadow_only")
         if not raytrace.EMBREE_AVAILABLE:
             if settings.backend == "EMBREE":
-                wrapped_label(layout, context, "Embree is not available here: choose Auto or BVH Tree",
-                              icon="ERROR")
+                wrapped_label(layout, context, "Embree is not available here: choose Auto or BVH Tree", icon="ERROR")
             else:
-                wrapped_label(layout, context, f"Fast ray tracing (Embree) is not available here: baking "
-                              f"is about {FALLBACK_SLOWDOWN} times slower", icon="INFO")
+                wrapped_label(
+                    layout,
+                    context,
+                    f"Fast ray tracing (Embree) is not available here: baking "
+                    f"is about {FALLBACK_SLOWDOWN} times slower",
+                    icon="INFO",
+                )
         layout.operator("prt.bake_transfer", text="Bake", icon="RENDER_STILL")
         obj = context.active_object
         if obj is not None and obj.type == "MESH":
@@ -62,12 +66,14 @@ class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
             if state == "fresh":
                 layout.label(text=f"{obj.name}: baked", icon="CHECKMARK")
             elif state == "stale":
-                wrapped_label(layout, context, f"{obj.name}: bake again ({reason.split(':')[0]})",
-                              icon="ERROR")
+                wrapped_label(layout, context, f"{obj.name}: bake again ({reason.split(':')[0]})", icon="ERROR")
             else:
                 layout.label(text=f"{obj.name}: not baked", icon="DOT")
-        stale = [o.name for o in context.selected_objects[:16]
-                 if o.type == "MESH" and o != obj and status(o, use_cache=True)[0] == "stale"]
+        stale = [
+            o.name
+            for o in context.selected_objects[:16]
+            if o.type == "MESH" and o != obj and status(o, use_cache=True)[0] == "stale"
+        ]
         if stale:
             wrapped_label(layout, context, "Bake again: " + ", ".join(stale), icon="ERROR")
         report = _report(context.scene)

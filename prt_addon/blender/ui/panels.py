@@ -84,9 +84,14 @@ class VIEW3D_PT_prt_display(PRTSubPanel, bpy.types.Panel):
                 layout.label(text=f"{obj.name}: drawn at order {info.order}")
         view = scene.view_settings
         if view.view_transform != "Standard":
-            wrapped_label(layout, context, f"PRT colours are shown as with the Standard view transform, "
-                          f"not {view.view_transform}: set Color Management > View Transform to Standard "
-                          "to compare them with Blender's", icon="INFO")
+            wrapped_label(
+                layout,
+                context,
+                f"PRT colours are shown as with the Standard view transform, "
+                f"not {view.view_transform}: set Color Management > View Transform to Standard "
+                "to compare them with Blender's",
+                icon="INFO",
+            )
 
 
 CLASSES = [

@@ -61,26 +61,33 @@ class PRT_PG_world(bpy.types.PropertyGroup):
     split_lights: bpy.props.BoolProperty(
         name="Split Lights",
         description="At the next projection, take the world's compact bright sources (a sun, lamps) out "
-                    "of the SH as disc lights with their own shadows; SH of any order cannot hold them",
+        "of the SH as disc lights with their own shadows; SH of any order cannot hold them",
         default=True,
     )
     light_threshold: bpy.props.FloatProperty(
         name="Threshold",
         description="Luminance above which texels become lights (0: automatic, the larger of 8 times the "
-                    "image's mean luminance and the level that keeps the bright texels within 1 % of "
-                    "the sphere)",
-        default=0.0, min=0.0, soft_max=1000.0,
+        "image's mean luminance and the level that keeps the bright texels within 1 % of "
+        "the sphere)",
+        default=0.0,
+        min=0.0,
+        soft_max=1000.0,
     )
     max_lights: bpy.props.IntProperty(
         name="Max Lights",
         description="At most this many lights, the most powerful bright regions; the others stay in the SH",
-        default=4, min=0, max=MAX_LIGHTS,
+        default=4,
+        min=0,
+        max=MAX_LIGHTS,
     )
     stored_split: bpy.props.BoolProperty(
-        name="Split Used", description="Whether the stored projection split lights off the world",
+        name="Split Used",
+        description="Whether the stored projection split lights off the world",
     )
     light_count: bpy.props.IntProperty(
-        name="Lights", description="Number of lights split off at the last projection", default=0,
+        name="Lights",
+        description="Number of lights split off at the last projection",
+        default=0,
     )
     light_share: bpy.props.FloatProperty(
         name="Light Share",
@@ -98,12 +105,19 @@ class PRT_PG_world(bpy.types.PropertyGroup):
 
 class PRT_PG_bake_settings(bpy.types.PropertyGroup):
     order: bpy.props.IntProperty(
-        name="Order", description="SH order n: n*n transfer coefficients per vertex",
-        default=4, min=1, max=MAX_ORDER,
+        name="Order",
+        description="SH order n: n*n transfer coefficients per vertex",
+        default=4,
+        min=1,
+        max=MAX_ORDER,
     )
     samples: bpy.props.IntProperty(
-        name="Samples", description="Directions of the shared direction set (rays per vertex)",
-        default=256, min=MIN_SAMPLES, soft_min=16, max=65536,
+        name="Samples",
+        description="Directions of the shared direction set (rays per vertex)",
+        default=256,
+        min=MIN_SAMPLES,
+        soft_min=16,
+        max=65536,
     )
     direction_set: bpy.props.EnumProperty(
         name="Directions",
@@ -116,11 +130,13 @@ class PRT_PG_bake_settings(bpy.types.PropertyGroup):
     )
     seed: bpy.props.IntProperty(name="Seed", description="Seed of the direction set", default=0, min=0)
     shadows: bpy.props.BoolProperty(
-        name="Shadows", description="Trace visibility (shadowed transfer); off: cosine only",
+        name="Shadows",
+        description="Trace visibility (shadowed transfer); off: cosine only",
         default=True,
     )
     self_shadow_only: bpy.props.BoolProperty(
-        name="Self-Shadow Only", description="Only the object itself occludes (no other objects)",
+        name="Self-Shadow Only",
+        description="Only the object itself occludes (no other objects)",
         default=False,
     )
     backend: bpy.props.EnumProperty(

@@ -13,6 +13,7 @@ class PRTSubPanel:
     bl_category = "PRT"
     bl_parent_id = "VIEW3D_PT_prt"
 
+
 # Average width of a character of Blender's UI font at 100 % scale, in pixels (measured on the
 # default font: "Rays traced 1,491,273" is about 130 px), and the panel's inner margins.
 CHAR_WIDTH = 6.5

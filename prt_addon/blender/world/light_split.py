@@ -18,10 +18,14 @@ def check_split_settings(threshold, max_lights):
         raise WorldError(f"the light threshold must be a number (0: automatic), got {threshold!r}")
     if not np.isfinite(threshold) or threshold < 0.0:
         raise WorldError(f"the light threshold must be finite and >= 0 (0: automatic), got {threshold!r}")
-    if isinstance(max_lights, bool) or not isinstance(max_lights, (int, np.integer)) \
-            or not 0 <= max_lights <= core_lights.MAX_LIGHTS:
-        raise WorldError(f"the number of lights must be an integer from 0 to {core_lights.MAX_LIGHTS}, "
-                         f"got {max_lights!r}")
+    if (
+        isinstance(max_lights, bool)
+        or not isinstance(max_lights, (int, np.integer))
+        or not 0 <= max_lights <= core_lights.MAX_LIGHTS
+    ):
+        raise WorldError(
+            f"the number of lights must be an integer from 0 to {core_lights.MAX_LIGHTS}, got {max_lights!r}"
+        )
     return (float(threshold) if threshold > 0.0 else None), int(max_lights)
 
 

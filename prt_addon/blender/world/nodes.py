@@ -83,12 +83,14 @@ def _mapping_info(world, env, link):
     source = _from_link(mapping.inputs["Vector"])
     if mapping.mute:  # a muted node passes its Vector input through: Generated is no rotation
         if source is None or (
-            source.from_node.bl_idname == "ShaderNodeTexCoord"
-            and source.from_socket.identifier == "Generated"
+            source.from_node.bl_idname == "ShaderNodeTexCoord" and source.from_socket.identifier == "Generated"
         ):
             return None
-        return _render_source(world, env, f"the muted Mapping node '{mapping.name}' passes on "
-                              "another vector than Texture Coordinate > Generated")
+        return _render_source(
+            world,
+            env,
+            f"the muted Mapping node '{mapping.name}' passes on another vector than Texture Coordinate > Generated",
+        )
     if (
         source is None
         or source.from_node.bl_idname != "ShaderNodeTexCoord"
@@ -115,8 +117,7 @@ def _mapping_info(world, env, link):
         return _render_source(
             world,
             env,
-            f"the Mapping node '{mapping.name}' has a {' and a '.join(problems)} that an SH rotation "
-            "cannot represent",
+            f"the Mapping node '{mapping.name}' has a {' and a '.join(problems)} that an SH rotation cannot represent",
         )
     euler = tuple(float(a) for a in sockets["Rotation"].default_value)
     return MappingInfo(mapping.name, vector_type, euler)
@@ -184,9 +185,7 @@ def _analyse(world):
             mapping = _mapping_info(world, env, vector_link)
             if isinstance(mapping, WorldSource):
                 return mapping
-    return WorldSource(
-        "IMAGE", world.name, node_name=env.name, image=env.image, strength=strength, mapping=mapping
-    )
+    return WorldSource("IMAGE", world.name, node_name=env.name, image=env.image, strength=strength, mapping=mapping)
 
 
 def _lighting_environment(world):
@@ -202,12 +201,7 @@ def _lighting_environment(world):
         return None
     color_link = _from_link(background.inputs["Color"])
     env = None if color_link is None else color_link.from_node
-    if (
-        env is None
-        or env.bl_idname != "ShaderNodeTexEnvironment"
-        or env.mute
-        or env.projection != "EQUIRECTANGULAR"
-    ):
+    if env is None or env.bl_idname != "ShaderNodeTexEnvironment" or env.mute or env.projection != "EQUIRECTANGULAR":
         return None
     return env
 

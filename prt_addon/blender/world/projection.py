@@ -165,8 +165,7 @@ def store(scene, result):
     settings.stored_split = result.split
     settings.light_count = len(result.lights)
     settings.light_share = result.light_share
-    settings.strongest_elevation = (light_split.elevation(result.lights[0], result.rotation)
-                                    if result.lights else 0.0)
+    settings.strongest_elevation = light_split.elevation(result.lights[0], result.rotation) if result.lights else 0.0
     settings.token = uuid.uuid4().hex
 
 
