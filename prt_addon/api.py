@@ -4,20 +4,31 @@ The maths functions are pure numpy and work without Blender. Functions that take
 import the Blender layer only when called.
 """
 
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
+import numpy.typing as npt
 
 from .core import projection as _projection
 from .core import rotation as _rotation
 from .core import sh as _sh
 from .core.directions import make_directions  # noqa: F401  (re-exported)
 
+if TYPE_CHECKING:  # Blender types, only for the annotations
+    import bpy
 
-def sh_basis(directions, order):
+    from .blender.bake.settings import BakeReport
+
+
+def sh_basis(directions: npt.ArrayLike, order: int) -> np.ndarray:
     """Real orthonormal SH basis (no Condon-Shortley phase, Z up) at directions: (N, order**2)."""
     return _sh.sh_basis(directions, order)
 
 
-def project_equirect(pixels, order):
+def project_equirect(pixels: npt.ArrayLike, order: int) -> np.ndarray:
     """(H, W, C) equirectangular image, row 0 at the bottom as Image.pixels -> (order**2, 3).
 
     NaN/Inf values are set to 0 and negative values clamped to 0; use
@@ -27,7 +38,7 @@ def project_equirect(pixels, order):
     return coeffs
 
 
-def rotation_matrix(rotation, order):
+def rotation_matrix(rotation: npt.ArrayLike, order: int) -> np.ndarray:
     """(order**2, order**2) matrix M such that M @ c are the coefficients of f(R^-1 w).
 
     `rotation` is a 3x3 rotation matrix (anything np.asarray turns into one, e.g. a
@@ -36,7 +47,13 @@ def rotation_matrix(rotation, order):
     return _rotation.rotation_matrix(np.asarray(rotation, dtype=np.float64), order)
 
 
-def project_world(scene=None, order=None, split_lights=None, threshold=None, max_lights=None):
+def project_world(
+    scene: bpy.types.Scene | None = None,
+    order: int | None = None,
+    split_lights: bool | None = None,
+    threshold: float | None = None,
+    max_lights: int | None = None,
+) -> np.ndarray:
     """Project scene.world (default: the context scene) into SH, store it on the scene and
     return the world-space coefficients (order**2, 3). order=None uses scene.prt_world.order.
 
@@ -59,7 +76,7 @@ def project_world(scene=None, order=None, split_lights=None, threshold=None, max
     return result.coeffs.copy()
 
 
-def world_lights(scene=None):
+def world_lights(scene: bpy.types.Scene | None = None) -> list[dict[str, Any]]:
     """The split lights of the scene in world space, with the Mapping rotation now: a list of
     {"direction": (3,) unit array, "power": (3,) RGB array (irradiance on a surface facing the
     light, Background strength included), "angle": disc radius in radians}, strongest first;
@@ -75,7 +92,7 @@ def world_lights(scene=None):
     ]
 
 
-def world_lighting(scene=None):
+def world_lighting(scene: bpy.types.Scene | None = None) -> np.ndarray | None:
     """World-space SH lighting (n*n, 3) stored on the scene for its current Mapping rotation,
     or None if nothing was projected."""
     import bpy
@@ -85,7 +102,7 @@ def world_lighting(scene=None):
     return _world.current_world_coeffs(bpy.context.scene if scene is None else scene)
 
 
-def shade(obj, scene=None):
+def shade(obj: bpy.types.Object, scene: bpy.types.Scene | None = None) -> np.ndarray:
     """Per-element radiance (elements, 3) for a white surface (albedo excluded):
     max(sum_i L_i t_i, 0) per channel with the scene's lighting rotated into obj's local frame,
     plus for each split light power / pi * max(0, n . s) * V, V the fraction of its disc that
@@ -97,7 +114,12 @@ def shade(obj, scene=None):
     return _lighting.shade(obj, scene)
 
 
-def render_view(scene=None, width=None, height=None, camera=None):
+def render_view(
+    scene: bpy.types.Scene | None = None,
+    width: int | None = None,
+    height: int | None = None,
+    camera: bpy.types.Object | None = None,
+) -> np.ndarray:
     """(H, W, 4) float32 linear image of the baked objects drawn with the PRT shader from the
     scene camera, offscreen, top row first (alpha 0 where nothing is drawn)."""
     from .blender.display import offscreen as _offscreen
@@ -105,7 +127,9 @@ def render_view(scene=None, width=None, height=None, camera=None):
     return _offscreen.render_view(scene, width, height, camera)
 
 
-def save_png(image, path, scene=None, background=None):
+def save_png(
+    image: npt.ArrayLike, path: str, scene: bpy.types.Scene | None = None, background: Sequence[float] | None = None
+) -> str:
     """Save an image from render_view as PNG through the scene's colour management."""
     from .blender.display import offscreen as _offscreen
 
@@ -113,17 +137,17 @@ def save_png(image, path, scene=None, background=None):
 
 
 def bake(
-    objects,
-    order=4,
-    samples=256,
-    shadows=True,
-    backend="AUTO",
-    direction_set="FIBONACCI",
-    seed=0,
-    self_shadow_only=False,
-    progress=None,
-    **options,
-):
+    objects: bpy.types.Object | Sequence[bpy.types.Object],
+    order: int = 4,
+    samples: int = 256,
+    shadows: bool = True,
+    backend: str = "AUTO",
+    direction_set: str = "FIBONACCI",
+    seed: int = 0,
+    self_shadow_only: bool = False,
+    progress: Callable[[float, str], None] | None = None,
+    **options: Any,
+) -> BakeReport:
     """Bake diffuse SH transfer into mesh objects (docs/bake.md, storage: docs/storage.md).
 
     objects: an Object or a list; meshes that cannot be baked are listed in report.skipped.
@@ -156,7 +180,7 @@ def bake(
     )
 
 
-def bake_status(obj, reason=False):
+def bake_status(obj: bpy.types.Object, reason: bool = False) -> str | tuple[str, str]:
     """'fresh', 'stale' (the topology changed since the bake) or 'none' for an object;
     with reason=True, a (status, explanation) pair."""
     from .blender.bake import job as _job
@@ -165,7 +189,9 @@ def bake_status(obj, reason=False):
     return (state, why) if reason else state
 
 
-def export_gltf(path, objects=None, scene=None):
+def export_gltf(
+    path: str, objects: Sequence[bpy.types.Object] | None = None, scene: bpy.types.Scene | None = None
+) -> str:
     """Write the baked objects (default: every baked mesh of the scene) and the scene's lighting
     to a binary glTF file `path` (.glb) through Blender's glTF exporter; returns the path.
     The transfer, rotated into glTF's Y-up frame, is in the attributes _PRT_T0, _PRT_T1, ...,
