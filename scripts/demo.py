@@ -174,6 +174,7 @@ def print_summary(args, summary):
     paths, seconds = summary["renders"]
     print(f"  Pictures ({len(paths)} lighting rotations, {seconds:.2f} s): " + ", ".join(shown(p) for p in paths))
     print(f"  Blender file: {shown(summary['blend'])} (open it and rotate the HDRI in the PRT tab)")
+    print(f"  For other engines: {shown(summary['glb'])} (glTF with the transfer and the lighting, docs/export.md)")
     print(f"  World projected in {summary['project'][1] * 1e3:.0f} ms ({summary['project'][0].lower()})")
 
 
@@ -213,6 +214,7 @@ def run_scene(args, summary):
         blend = os.path.join(args.output, "prt_demo.blend")
         bpy.ops.wm.save_as_mainfile(filepath=blend)
         summary["blend"] = blend
+        summary["glb"] = api.export_gltf(os.path.join(args.output, "prt_demo.glb"), scene=scene)
     finally:
         # bpy 4.x as a module frees classes still registered at exit after Python has shut down
         # and segfaults: unregister while Python runs (full Blender does this itself).
