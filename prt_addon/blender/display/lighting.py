@@ -78,8 +78,7 @@ def world_lights(scene):
     if override is not None:
         rot = _nodes.live_sh_rotation(scene.world)
         return override if rot is None else _lights.rotate_lights(override, rot)
-    current = getattr(_world, "current_world_lights", None)
-    return [] if current is None else current(scene)
+    return _world.current_world_lights(scene)
 
 
 def light_in_local_frame(light_world, matrix_world, order):
