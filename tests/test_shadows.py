@@ -215,17 +215,12 @@ def test_vertices_agree_with_traced_visibility(bpy_module, ground_scene):
     rows, cols = ground_pixels(scene, points[keep])
     got = image[rows, cols, :3]
     np.testing.assert_allclose(got, want, rtol=1e-4, atol=1e-5)
-    # api.shade adds the split lights when light_shading is there (its own traced V, shadowed as
-    # the bake was: by every visible mesh for a shadowed bake): it agrees at the same vertices.
-    try:
-        from prt_addon.blender.display import light_shading  # noqa: F401
-    except ImportError:
-        pass
-    else:
-        import prt_addon.api as api
+    # api.shade adds the split lights with its own traced V, shadowed as the bake was (by every
+    # visible mesh for a shadowed bake): it agrees at the same vertices.
+    import prt_addon.api as api
 
-        ground.data["prt_bake"]["shadows"] = True
-        np.testing.assert_allclose(got, api.shade(ground, scene)[keep], rtol=1e-4, atol=1e-5)
+    ground.data["prt_bake"]["shadows"] = True
+    np.testing.assert_allclose(got, api.shade(ground, scene)[keep], rtol=1e-4, atol=1e-5)
     # And the vertices at the edges are not all lit or all dark: the shadow is really there.
     assert ((vis > 0.0) & (vis < 1.0)).sum() + (~same).sum() > 10
 
