@@ -65,3 +65,7 @@ class LazyOccluder:
     def occluded(self, origins: npt.ArrayLike, directions: npt.ArrayLike) -> np.ndarray:
         real = self._real if self._real is not None else self._build()
         return real.occluded(origins, directions)
+
+    def first_hits(self, origins: npt.ArrayLike, directions: npt.ArrayLike) -> tuple[np.ndarray, ...]:
+        real = self._real if self._real is not None else self._build()
+        return real.first_hits(origins, directions)

@@ -5,6 +5,9 @@ Occluder protocol (duck-typed; `prt_addon/blender/bvh_backend.py` implements it 
     occluder.name          "EMBREE" or "BVHTREE"
     occluder.max_threads   how many Python threads may call occluded() at once usefully
     occluder.occluded(origins f32 (N, 3), directions f32 (N, 3)) -> bool (N,)
+    occluder.first_hits(origins, directions) -> (triangle int32 (N,), u, v float32 (N,)): the
+        nearest hit's triangle (-1: none) and barycentrics, hit = (1 - u - v) a + u b + v c for
+        the triangle's corners (a, b, c); used by interreflected bakes (core.bounce)
 
 A ray is occluded when it hits any triangle at a distance in (0, inf). The caller offsets the
 origins (Embree's tnear is fixed at 0). occluded() must be thread-safe.
@@ -97,6 +100,15 @@ class EmbreeOccluder:
             return np.zeros(0, dtype=bool)
         # run() returns int32: 0 where occluded, -1 where the ray is free.
         return self._scene.run(o, d, query="OCCLUDED") == 0
+
+    def first_hits(self, origins: npt.ArrayLike, directions: npt.ArrayLike) -> tuple[np.ndarray, ...]:
+        o = np.asarray(origins, dtype=np.float32)
+        d = np.asarray(directions, dtype=np.float32)
+        if len(o) == 0:
+            return np.zeros(0, np.int32), np.zeros(0, np.float32), np.zeros(0, np.float32)
+        # Embree's u, v weigh the triangle's second and third corners.
+        hit = self._scene.run(o, d, query="INTERSECT", output=1)
+        return hit["primID"], hit["u"], hit["v"]
 
 
 def bounding_box(vertices: npt.ArrayLike) -> np.ndarray:

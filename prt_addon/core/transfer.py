@@ -23,26 +23,19 @@ each an unbiased quadrature t_g on its own, t = sum_g |G_g| t_g / N, and
 
     SE(t)^2 ~ sum_g (t_g - mean_g t_g)^2 / (K (K - 1))
 
-(for K = 2: SE = |t_A - t_B| / 2). For i.i.d. directions (UNIFORM) this is the unbiased standard
-error, with K = 8 groups: with two, one unlucky set can make both halves agree while both are
-wrong (measured: estimate 0.15x the true error). The Fibonacci and stratified sets use K = 2. For
-the Fibonacci set the halves are worse than the whole by more than sqrt(2) (quasi-Monte-Carlo error
-falls faster than N^-1/2, and the halves alias as N / 2 nears n^2), so the raw estimate over-states
-the error; error_calibration() divides it by a fitted factor. The stratified set keeps the raw
-half-set estimate (measured 0.7-1.8 of the true error, docs/accuracy.md). The per-point figure is
-the L2 norm over the coefficients.
+(for K = 2: SE = |t_A - t_B| / 2): K = 8 for i.i.d. directions (UNIFORM), 2 for the Fibonacci and
+stratified sets, whose raw estimate error_calibration() corrects (core.transfer_stats). The
+per-point figure is the L2 norm over the coefficients.
 
-Memory: points are processed in slices of at most chunk_rays / threads candidate (point,
-direction) pairs per thread. Each pair costs about RAY_BYTES of buffers and each point of a
-slice (K + 3) n^2 float64 accumulators (the K group sums, t, and the estimate's temporaries),
-counted in the same budget: the working set is about chunk_rays * RAY_BYTES (21 MB at the
-default 2^18), independent of the sample count, the order and the mesh size; the outputs
-(P x n^2 float32 plus P error values) come on top. When one point
-alone has more directions than a slice holds, its directions are processed in blocks.
+Memory and threads (docs/bake.md, "Threads, chunks and memory"): points go in slices of at most
+chunk_rays / threads candidate (point, direction) pairs per thread, each pair costing about
+RAY_BYTES and each point (K + 3) n^2 float64 accumulators, so the working set is about
+chunk_rays * RAY_BYTES whatever the sample count, order and mesh size; worker threads take whole
+slices (Embree and numpy release the GIL), queued ahead of the one step() collects.
 
-Threads: `threads` worker threads each take whole slices (build the rays, trace them, project
-them); Embree and numpy release the GIL, so two threads use both cores. Slices are queued ahead of
-the one step() collects, so no worker waits for another at chunk boundaries.
+Interreflection (core.bounce): with a hit_sink, the shadow pass asks the occluder for each
+blocked ray's first hit (first_hits) and hands the hits to the sink, whose entries are kept per
+slice in point order (self.hits).
 """
 
 from __future__ import annotations
@@ -65,6 +58,7 @@ from .serial_blas import matmul_serial
 from .contact import inward_tangents
 from .frames import frame_rotation, to_local_frame  # noqa: F401 - the transfer's frame, used beside it
 from .mesh import unit_normals
+from .ray_rows import RAY16 as _RAY16, rays16 as _rays16, xyz as _xyz
 from .transfer_stats import Cancelled, TransferResult, TransferStats, error_calibration, error_groups
 
 CHUNK_RAYS = 1 << 18
@@ -75,22 +69,6 @@ SLICES_PER_THREAD = 4  # slices per step() and thread
 # tiled directions table (16, shared by the threads). Checked with tracemalloc in
 # tests/test_transfer.py.
 RAY_BYTES = 80
-
-
-# Ray origins and directions are kept as rows of four float32 (x, y, z, 0) viewed as one 16-byte
-# item: numpy's take() and repeat() copy 16-byte items in a fast path but 12-byte rows element by
-# element (measured 3 to 5 times slower). _xyz() gives the (n, 3) float32 view Embree reads.
-_RAY16 = np.complex128
-
-
-def _rays16(xyz):
-    rows = np.zeros((len(xyz), 4), dtype=np.float32)
-    rows[:, :3] = xyz
-    return rows.view(_RAY16).reshape(-1)
-
-
-def _xyz(rays16):
-    return rays16.view(np.float32).reshape(-1, 4)[:, :3]
 
 
 class TransferComputation:
@@ -127,6 +105,7 @@ class TransferComputation:
         pool: ThreadPoolExecutor | None = None,
         surface: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
         point_vertex: npt.ArrayLike | None = None,
+        hit_sink: Callable[..., tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None,
     ) -> None:
         if not isinstance(directions, DirectionSet):
             raise TypeError("directions must be a DirectionSet (core.directions.make_directions)")
@@ -178,6 +157,8 @@ class TransferComputation:
         self._pending = deque()  # (lo, hi, future) of queued slices, in point order
         self._next = 0  # first point not yet queued
         self._started = None
+        self.hit_sink = hit_sink
+        self.hits = []  # the sink's entries, one tuple per slice
 
     @property
     def total(self) -> int:
@@ -280,13 +261,14 @@ class TransferComputation:
                     yield np.ascontiguousarray(origins), np.ascontiguousarray(dirs)
 
     def _slice(self, lo, hi):
-        """Project points [lo, hi): returns (t, err, stats) for the slice."""
+        """Project points [lo, hi): returns (t, err, stats, hit entries) for the slice."""
         stats = TransferStats()
         n_pts = hi - lo
         nn = self.order * self.order
         bounds = self.group_bounds
         sums = np.zeros((len(bounds) - 1, n_pts, nn))  # per error group
         needs = self._needs_rays(lo, hi)
+        entries = []
         for k0 in range(0, self.n_dirs, self.dir_block):
             k1 = min(self.n_dirs, k0 + self.dir_block)
             weight, n_above, flat, origins, dirs = self._block(lo, hi, k0, k1, needs)
@@ -298,7 +280,11 @@ class TransferComputation:
                 stats.skipped_unoccludable += n_above - n_trace
             if n_trace:
                 t0 = time.perf_counter()
-                hit = np.asarray(self.occluder.occluded(origins, dirs), dtype=bool)
+                if self.hit_sink is None:
+                    hit = np.asarray(self.occluder.occluded(origins, dirs), dtype=bool)
+                else:
+                    prims, bary_u, bary_v = self.occluder.first_hits(origins, dirs)
+                    hit = np.asarray(prims) >= 0
                 stats.trace_seconds += time.perf_counter() - t0
                 if hit.shape != (n_trace,):
                     raise RuntimeError(f"occluder returned shape {hit.shape} for {n_trace} rays")
@@ -307,6 +293,12 @@ class TransferComputation:
                 stats.occluded_rays += n_hit
                 if n_hit:
                     hit_flat = np.compress(hit, flat, out=self._workspace()["index"][:n_hit])
+                    if self.hit_sink is not None:
+                        cosines, cols = weight.reshape(-1)[hit_flat], k1 - k0
+                        kdir, rows = k0 + hit_flat % cols, lo + hit_flat // cols
+                        entries.append(
+                            self.hit_sink(rows, kdir, dirs[hit], cosines, prims[hit], bary_u[hit], bary_v[hit])
+                        )
                     weight.reshape(-1)[hit_flat] = 0.0  # (np.put is several times slower)
             # Split the block at the group boundaries of the permuted direction order.
             for g in range(len(bounds) - 1):
@@ -326,7 +318,7 @@ class TransferComputation:
             err = (scale * self.error_scale) * np.sqrt(se2)
         else:
             err = np.full(n_pts, np.inf)
-        return t, err, stats
+        return t, err, stats, entries
 
     def _submit(self):
         """Queue slices on the pool until `threads * SLICES_PER_THREAD` are pending."""
@@ -359,10 +351,12 @@ class TransferComputation:
                 # at chunk boundaries. Only `threads` slices run at a time (the memory bound).
                 self._submit()
                 a, b, future = self._pending.popleft()
-                t, err, stats = future.result()
+                t, err, stats, entries = future.result()
             else:
                 a, b = self.done, min(self.total, self.done + self.points_per_slice)
-                t, err, stats = self._slice(a, b)
+                t, err, stats, entries = self._slice(a, b)
+            if self.hit_sink is not None:
+                self.hits.extend(entries)
             self.coeffs[a:b] = t
             self.error[a:b] = err
             self.stats.add(stats)

@@ -1,0 +1,219 @@
+"""Interreflected transfer: the blocked rays' hits as a sparse transport, and the bounce passes.
+
+Sloan, Kautz and Snyder 2002 (section 5, interreflected transfer): the light that leaves a
+diffuse surface point h after b reflections is rho(h) sum_i L_i t_i^b(h), so one more reflection
+reaches a point x with normal n along each blocked direction w of its shadow pass:
+
+    t^{b+1}(x) = 4 pi / N sum_{w blocked, front face hit} max(0, n . w) / pi * rho(h_w) t^b(h_w)
+
+with t^0 the direct (shadowed) transfer and N the directions of the shared set; the bounced
+transfer is t^1 + ... + t^B. Every pass reuses the shadow pass's hits (no new rays), and each
+pass applies the same sparse matrix A to the previous pass (no bounce is counted twice).
+
+t^b(h) is interpolated over the hit triangle's nodes (the bake points of the mesh it belongs to):
+each hit keeps one node, the corner j chosen with probability equal to its barycentric weight,
+so the entry is an unbiased estimate of the linear interpolation with one matrix entry per hit.
+The choice is a hash of (point, direction), so a bake does not depend on threads or slicing.
+A hit on a triangle's back face (the ray travels along its normal) reflects nothing.
+
+Memory: one entry per front-face hit, 8 + 4 C bytes (row and node int32, C = 1 or 3 float32
+weights, the hit surface's albedo per colour channel times 4 / N max(0, n . w)).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from concurrent.futures import Executor
+
+import numpy as np
+import numpy.typing as npt
+
+# Entry chunks of one matrix-vector product: at most this many float32 gathered values.
+GATHER_VALUES = 1 << 22
+
+
+def _hash_unit(rows: np.ndarray, kdir: np.ndarray, seed: int) -> np.ndarray:
+    """Uniform [0, 1) float64 per (row, direction): murmur3's 32-bit finaliser of a mix."""
+    with np.errstate(over="ignore"):
+        h = rows.astype(np.uint32) * np.uint32(0x9E3779B1)
+        h ^= kdir.astype(np.uint32) * np.uint32(0x85EBCA77) + np.uint32(seed & 0xFFFFFFFF)
+        h ^= h >> np.uint32(16)
+        h *= np.uint32(0x85EBCA6B)
+        h ^= h >> np.uint32(13)
+        h *= np.uint32(0xC2B2AE35)
+        h ^= h >> np.uint32(16)
+    return h * (1.0 / 4294967296.0)
+
+
+class HitTransport:
+    """Turns a shadow pass's hits into transport entries (the `hit_sink` of a TransferComputation).
+
+    vertices, triangles: the occluder's triangle soup (the primitive ids the occluder returns
+    index `triangles`); node_triangles: (T, 3) the node of each triangle corner (-1: the triangle
+    reflects nothing); albedo: a scalar, (T,) or (T, C) diffuse albedo per triangle, clamped to
+    [0, 1];
+    n_dirs: the size of the direction set.
+    """
+
+    def __init__(
+        self,
+        vertices: npt.ArrayLike,
+        triangles: npt.ArrayLike,
+        node_triangles: npt.ArrayLike,
+        albedo: npt.ArrayLike,
+        n_dirs: int,
+        seed: int = 0,
+    ) -> None:
+        v = np.asarray(vertices, dtype=np.float64)
+        t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+        self.normals = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]).astype(np.float32)
+        self.node_triangles = np.asarray(node_triangles, dtype=np.int32).reshape(-1, 3)
+        if len(self.node_triangles) != len(t):
+            raise ValueError("node_triangles must have one row per triangle")
+        rho = np.asarray(albedo, dtype=np.float64)
+        rho = np.broadcast_to(rho, (len(t), 1)) if rho.ndim == 0 else rho.reshape(len(t), -1)
+        self.albedo = np.clip(np.nan_to_num(rho, nan=0.0), 0.0, 1.0).astype(np.float32)
+        self.channels = self.albedo.shape[1]
+        self.scale = 4.0 / float(n_dirs)
+        self.seed = int(seed)
+
+    def __call__(
+        self,
+        rows: np.ndarray,
+        kdir: np.ndarray,
+        dirs: np.ndarray,
+        cosines: np.ndarray,
+        prims: np.ndarray,
+        bary_u: np.ndarray,
+        bary_v: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(rows int32, nodes int32, weights (m, C) float32) of the hits: point `rows[j]` saw
+        triangle `prims[j]` along `dirs[j]` at barycentrics (u, v), with max(0, n . w) `cosines[j]`."""
+        prims = np.asarray(prims, dtype=np.intp)
+        n = self.normals[prims]
+        d = np.asarray(dirs, dtype=np.float32)
+        front = (n[:, 0] * d[:, 0] + n[:, 1] * d[:, 1] + n[:, 2] * d[:, 2]) < 0.0
+        xi = _hash_unit(np.asarray(rows), np.asarray(kdir), self.seed)
+        u = np.asarray(bary_u, dtype=np.float64)
+        corner = np.where(xi < u, 1, np.where(xi < u + np.asarray(bary_v, dtype=np.float64), 2, 0))
+        nodes = self.node_triangles[prims, corner]
+        keep = front & (nodes >= 0)
+        weights = self.albedo[prims[keep]] * (np.asarray(cosines, dtype=np.float32)[keep, None] * self.scale)
+        return np.asarray(rows, dtype=np.int32)[keep], nodes[keep], weights.astype(np.float32)
+
+
+class Transport:
+    """A sparse matrix (rows: the points of one computation; columns: nodes), from hit entries,
+    sorted by row; apply() is y = A x per colour channel."""
+
+    def __init__(self, entries: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]], n_rows: int, channels: int):
+        parts = [e for e in entries if len(e[0])]
+        self.n_rows = int(n_rows)
+        self.channels = int(channels)
+        if parts:
+            rows = np.concatenate([p[0] for p in parts])
+            order = np.argsort(rows, kind="stable")
+            self.rows = rows[order]
+            self.nodes = np.concatenate([p[1] for p in parts])[order]
+            self.weights = np.concatenate([p[2] for p in parts])[order]
+        else:
+            self.rows = np.zeros(0, np.int32)
+            self.nodes = np.zeros(0, np.int32)
+            self.weights = np.zeros((0, self.channels), np.float32)
+        new = np.ones(len(self.rows), dtype=bool)
+        new[1:] = self.rows[1:] != self.rows[:-1]
+        self.starts = np.flatnonzero(new)  # first entry of each row that has entries
+        self.row_ids = self.rows[self.starts]
+
+    @property
+    def nbytes(self) -> int:
+        return self.rows.nbytes + self.nodes.nbytes + self.weights.nbytes
+
+    def _chunks(self, values_per_entry: int):
+        """(first, last) row-group ranges of at most ~GATHER_VALUES gathered values each."""
+        per = max(1, GATHER_VALUES // max(1, values_per_entry))
+        groups = len(self.starts)
+        a = 0
+        while a < groups:
+            b = int(np.searchsorted(self.starts, self.starts[a] + per, side="left"))
+            b = max(a + 1, min(groups, b))
+            yield a, b
+            a = b
+
+    def _apply_chunk(self, x, out, a, b):
+        lo = self.starts[a]
+        hi = self.starts[b] if b < len(self.starts) else len(self.rows)
+        gathered = x[self.nodes[lo:hi]]  # (m, Cx, nn)
+        gathered = gathered * self.weights[lo:hi, :, None]  # (m, C, nn), Cx = 1 broadcast to C
+        out[self.row_ids[a:b]] = np.add.reduceat(gathered, self.starts[a:b] - lo, axis=0)
+
+    def apply(self, x: np.ndarray, pool: Executor | None = None) -> np.ndarray:
+        """A x for x (nodes, 1 or C, nn) float32: (n_rows, C, nn) float32."""
+        x = np.asarray(x, dtype=np.float32)
+        channels = max(self.channels, x.shape[1])
+        out = np.zeros((self.n_rows, channels, x.shape[2]), dtype=np.float32)
+        chunks = list(self._chunks(channels * x.shape[2]))
+        if pool is None or len(chunks) < 2:
+            for a, b in chunks:
+                self._apply_chunk(x, out, a, b)
+        else:  # disjoint row ranges: the threads write disjoint rows
+            for future in [pool.submit(self._apply_chunk, x, out, a, b) for a, b in chunks]:
+                future.result()
+        return out
+
+
+class BouncePasses:
+    """The bounce passes of B bounces, one pass per step() (cancellable between passes).
+
+    direct: t^0 of the nodes, (nodes, nn); transport: A (nodes x nodes); extra: transports R of
+    receivers that are not nodes. After the last step, `total` is the nodes' bounced transfer
+    sum_{b=1..B} A^b t^0, (nodes, C, nn) float32, and `extra_out` each R sum_{b=0..B-1} A^b t^0.
+    """
+
+    def __init__(
+        self,
+        direct: np.ndarray,
+        transport: Transport,
+        bounces: int,
+        extra: Sequence[Transport] = (),
+        pool: Executor | None = None,
+    ) -> None:
+        if int(bounces) < 1:
+            raise ValueError("bounces must be at least 1")
+        self.direct = np.asarray(direct, dtype=np.float32)[:, None, :]
+        self.transport, self.bounces, self.extra, self.pool = transport, int(bounces), list(extra), pool
+        self.done = 0
+        self.term = self.direct
+        self.total = None
+        self.extra_out: list[np.ndarray] = []
+
+    def step(self) -> bool:
+        """Run the next pass; False once all are done."""
+        if self.done >= self.bounces:
+            return False
+        if self.done == self.bounces - 1 and self.extra:
+            before_last = self.direct if self.total is None else self.total + self.direct
+            self.extra_out = [r.apply(before_last, self.pool) for r in self.extra]
+        self.term = self.transport.apply(self.term, self.pool)
+        if self.total is None:
+            self.total = self.term.copy()
+        else:
+            if self.term.shape[1] > self.total.shape[1]:
+                self.total = np.broadcast_to(self.total, self.term.shape).copy()
+            self.total += self.term
+        self.done += 1
+        return self.done < self.bounces
+
+
+def bounce_passes(
+    direct: np.ndarray,
+    transport: Transport,
+    bounces: int,
+    extra: Sequence[Transport] = (),
+    pool: Executor | None = None,
+) -> tuple[np.ndarray, list[np.ndarray]]:
+    """(total, extra_out) of BouncePasses, all passes at once."""
+    passes = BouncePasses(direct, transport, bounces, extra, pool)
+    while passes.step():
+        pass
+    return passes.total, passes.extra_out
