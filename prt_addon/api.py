@@ -146,6 +146,7 @@ def bake(
     seed: int = 0,
     self_shadow_only: bool = False,
     progress: Callable[[float, str], None] | None = None,
+    bounces: int = 0,
     **options: Any,
 ) -> BakeReport:
     """Bake diffuse SH transfer into mesh objects (docs/bake.md, storage: docs/storage.md).
@@ -154,6 +155,9 @@ def bake(
     backend: 'AUTO' (Embree when embreex imports, else BVH tree), 'EMBREE' or 'BVHTREE'.
     direction_set: 'FIBONACCI', 'STRATIFIED' or 'UNIFORM' (seeded by `seed`).
     self_shadow_only: only each object itself occludes (else every visible mesh in the scene).
+    bounces: diffuse reflections between the world and the receiver, 0 to 8 (the count of
+    Cycles' Light Paths > Max Bounces > Diffuse); 0 is the direct transfer. Bounced light takes
+    each surface's albedo from its material (docs/bake.md, "Interreflection").
     progress: optional callable(fraction, text) after each chunk; an exception raised there
     aborts the bake and leaves every mesh unchanged.
     options: cull=True (skip rays where nothing can occlude), depsgraph, chunk_rays, threads
@@ -176,6 +180,7 @@ def bake(
         seed=seed,
         self_shadow_only=self_shadow_only,
         progress=progress,
+        bounces=bounces,
         **options,
     )
 

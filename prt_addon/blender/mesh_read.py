@@ -8,7 +8,7 @@ import hashlib
 
 import numpy as np
 
-from ..core.mesh import BakePoints, transform_normals, transform_points, triangulate_quads
+from ..core.mesh import BakePoints, transform_normals, transform_points, triangle_corners, triangulate_quads
 from ..core.mesh import vertex_points, vertex_normal_pairs
 
 
@@ -69,6 +69,32 @@ def read_triangles(mesh, positions=None):
         return out.reshape(-1, 3)
     positions = read_positions(mesh) if positions is None else positions
     return triangulate_quads(corner_verts, starts, sizes, positions)
+
+
+def read_triangle_corners(mesh, positions=None):
+    """((T, 3) int32 corner (loop) indices, (T,) int32 face index) of the loop triangles, in the
+    order of read_triangles."""
+    corner_verts = read_corner_verts(mesh)
+    starts = read_face_starts(mesh)
+    sizes = np.diff(starts, append=np.int32(len(corner_verts)))
+    if len(starts) == 0 or not ((sizes == 3) | (sizes == 4)).all():
+        mesh.calc_loop_triangles()
+        corners = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+        faces = np.empty(len(mesh.loop_triangles), dtype=np.int32)
+        if len(faces):
+            mesh.loop_triangles.foreach_get("loops", corners)
+            mesh.loop_triangles.foreach_get("polygon_index", faces)
+        return corners.reshape(-1, 3), faces
+    positions = read_positions(mesh) if positions is None else positions
+    faces = np.repeat(np.arange(len(starts), dtype=np.int32), sizes - 2)
+    return triangle_corners(corner_verts, starts, sizes, positions), faces
+
+
+def read_face_materials(mesh):
+    out = np.zeros(len(mesh.polygons), dtype=np.int32)
+    if len(out):
+        mesh.polygons.foreach_get("material_index", out)
+    return out
 
 
 def topology_fingerprint(mesh):

@@ -24,7 +24,7 @@ PREFIX = "prt_t"
 RECORD = "prt_bake"
 
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: interreflected bakes (bounce attributes); a bake without bounces is still written as 1
 
 
 _ATTR_RE = re.compile(r"^prt_t\d\d$")
@@ -115,12 +115,17 @@ def restore(mesh, snap):
     mesh.update()
 
 
-def write_transfer(mesh, values, domain, record):
-    """Write (E, n*n) float32 coefficients as prt_tKK attributes and the record on one mesh."""
+def write_transfer(mesh, values, domain, record, bounce=None):
+    """Write (E, n*n) float32 coefficients as prt_tKK attributes and the record on one mesh;
+    bounce: None or the (E, C, n*n) bounced transfer, written after them channel by channel,
+    each channel padded to the direct part's attribute count (docs/storage.md)."""
     values = np.asarray(values, dtype=np.float32)
-    count = (values.shape[1] + 3) // 4
+    per_part = (values.shape[1] + 3) // 4
+    parts = [values] if bounce is None else [values] + list(np.asarray(bounce, np.float32).transpose(1, 0, 2))
+    count = per_part * len(parts)
     packed = np.zeros((values.shape[0], count * 4), dtype=np.float32)
-    packed[:, : values.shape[1]] = values
+    for p, part in enumerate(parts):
+        packed[:, 4 * per_part * p : 4 * per_part * p + values.shape[1]] = part
     colors = mesh.color_attributes
     active, default = colors.active_color_name, colors.default_color_name
     for k in range(count):
@@ -135,17 +140,19 @@ def write_transfer(mesh, values, domain, record):
     for name in transfer_attribute_names(mesh):
         if int(name[len(PREFIX) :]) >= count:
             _remove(mesh, name)
-    mesh[RECORD] = dict(record, count=count, domain=domain)
+    channels = len(parts) - 1
+    version = FORMAT_VERSION if channels else 1
+    mesh[RECORD] = dict(record, count=per_part, domain=domain, bounce_channels=channels, version=version)
     _set_color_names(mesh, active, default)
     mesh.update()
 
 
 def write_bakes(items):
-    """items: [(mesh, values, domain, record)]. All are written, or none (state restored)."""
-    snapshots = [(mesh, snapshot(mesh)) for mesh, _v, _d, _r in items]
+    """items: [(mesh, values, domain, record[, bounce])]. All are written, or none (state restored)."""
+    snapshots = [(item[0], snapshot(item[0])) for item in items]
     try:
-        for mesh, values, domain, record in items:
-            write_transfer(mesh, values, domain, record)
+        for item in items:
+            write_transfer(*item)
     except BaseException:
         for mesh, snap in snapshots:
             restore(mesh, snap)
@@ -157,9 +164,10 @@ class BakeRecord:
     """The parsed mesh["prt_bake"] of a bake whose attributes are all present (docs/storage.md)."""
 
     order: int
-    count: int
+    count: int  # attributes of the direct transfer (and of each bounce channel)
     domain: str
     record: object  # the IDProperty group itself
+    channels: int = 0  # colour channels of the bounced transfer: 0 (direct only), 1 or 3
 
 
 def read_bake_record(mesh):
@@ -181,13 +189,17 @@ def read_bake_record(mesh):
         order, count, domain = int(record["order"]), int(record["count"]), str(record["domain"])
     except (KeyError, TypeError, ValueError):
         return None, "the bake record is incomplete"
-    if order < 1 or count != attribute_count(order) or domain not in ("POINT", "CORNER"):
+    try:
+        channels = int(record.get("bounce_channels", 0))
+    except (TypeError, ValueError):
+        return None, "the bake record is incomplete"
+    if order < 1 or count != attribute_count(order) or domain not in ("POINT", "CORNER") or channels not in (0, 1, 3):
         return None, "the bake record is inconsistent"
-    for k in range(count):
+    for k in range(count * (1 + channels)):
         attr = mesh.attributes.get(attribute_name(k))
         if attr is None or attr.domain != domain or attr.data_type != "FLOAT_COLOR":
             return None, f"attribute {attribute_name(k)} is missing or changed"
-    return BakeRecord(order, count, domain, record), ""
+    return BakeRecord(order, count, domain, record, channels), ""
 
 
 def read_transfer(mesh, bake=None, padded=False):
@@ -197,13 +209,27 @@ def read_transfer(mesh, bake=None, padded=False):
         bake, _problem = read_bake_record(mesh)
         if bake is None:
             return None
-    names = [attribute_name(k) for k in range(bake.count)]
+    return _read_part(mesh, bake, 0, padded)
+
+
+def _read_part(mesh, bake, part, padded):
+    names = [attribute_name(part * bake.count + k) for k in range(bake.count)]
     size = len(mesh.attributes[names[0]].data)
     packed = np.empty((bake.count, size * 4), dtype=np.float32)
     for k, name in enumerate(names):
         mesh.attributes[name].data.foreach_get("color", packed[k])
     values = packed.reshape(bake.count, size, 4).transpose(1, 0, 2).reshape(size, bake.count * 4)
     return np.ascontiguousarray(values if padded else values[:, : bake.order * bake.order])
+
+
+def read_bounce(mesh, bake=None, padded=False):
+    """(E, C, n*n) float32 bounced transfer of the last bake (C = 1 or 3), or None when the bake
+    has no bounces (or none is usable)."""
+    if bake is None:
+        bake, _problem = read_bake_record(mesh)
+    if bake is None or not bake.channels:
+        return None
+    return np.stack([_read_part(mesh, bake, 1 + c, padded) for c in range(bake.channels)], axis=1)
 
 
 TOPOLOGY_CHANGED = "the topology changed since the bake"

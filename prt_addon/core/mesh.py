@@ -17,7 +17,14 @@ from .serial_blas import matmul_serial
 def triangulate_quads(
     corner_verts: np.ndarray, starts: np.ndarray, sizes: np.ndarray, positions: npt.ArrayLike
 ) -> np.ndarray:
-    """Vertex triangles of faces of 3 or 4 corners, as Blender's mesh tessellation
+    """Vertex triangles of faces of 3 or 4 corners (triangle_corners, as vertex indices)."""
+    return corner_verts[triangle_corners(corner_verts, starts, sizes, positions)]
+
+
+def triangle_corners(
+    corner_verts: np.ndarray, starts: np.ndarray, sizes: np.ndarray, positions: npt.ArrayLike
+) -> np.ndarray:
+    """Corner (loop) triangles of faces of 3 or 4 corners, as Blender's mesh tessellation
     (blenkernel mesh_tessellate.cc): a triangle is (0, 1, 2); a quad is (0, 1, 2), (0, 2, 3),
     or (0, 1, 3), (1, 2, 3) when the first split folds over (blenlib's
     is_quad_flip_v3_first_third_fast: (v2 - v1) x (v3 - v1) . (v4 - v1) x (v3 - v1) > 0,
@@ -53,7 +60,7 @@ def triangulate_quads(
         else:
             corners[quad_first] = pair[:, 0]
             corners[quad_first + 1] = pair[:, 1]
-    return corner_verts[corners]
+    return corners
 
 
 def matrix_to_numpy(matrix: Iterable[Iterable[float]]) -> np.ndarray:

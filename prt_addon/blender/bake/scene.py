@@ -30,13 +30,26 @@ class _Plan:
     source: object = None  # (evaluated mesh, its local positions) until the points are read
 
 
+@dataclass
+class PartSource:
+    """Where a scene part's triangles came from: the evaluated object and mesh, its world matrix,
+    its local positions, and the indices of the triangles kept (None: all)."""
+
+    obj: object
+    mesh: object
+    matrix: np.ndarray
+    positions: np.ndarray
+    kept: object = None
+
+
 def _modifier_names(obj):
     return ", ".join(f"{m.name} ({m.type.replace('_', ' ').title()})" for m in obj.modifiers if m.show_viewport)
 
 
-def scene_parts(depsgraph, cache=None):
+def scene_parts(depsgraph, cache=None, sources=None):
     """World-space triangles of every visible mesh instance: [(original object or None, V, T)].
-    cache: {evaluated mesh pointer: (positions, triangles)} already read (filled in here)."""
+    cache: {evaluated mesh pointer: (positions, triangles)} already read (filled in here);
+    sources: a list to receive, per part, PartSource (what interreflected bakes read next)."""
     cache = {} if cache is None else cache
     parts = []
     for inst in depsgraph.object_instances:
@@ -55,13 +68,17 @@ def scene_parts(depsgraph, cache=None):
         with np.errstate(invalid="ignore", over="ignore"):  # NaN/Inf vertices: dropped below
             world = transform_points(matrix_to_numpy(inst.matrix_world), positions)
             world = world.astype(np.float32)
+        kept = None
         if not np.isfinite(world).all():  # NaN/Inf vertices cannot occlude: drop their triangles
             finite = np.isfinite(world).all(axis=1)
             world = np.where(finite[:, None], world, np.float32(0.0))
-            triangles = triangles[finite[triangles].all(axis=1)]
+            kept = np.flatnonzero(finite[triangles].all(axis=1))
+            triangles = triangles[kept]
             if len(triangles) == 0:
                 continue
         parts.append((owner, world, triangles))
+        if sources is not None:
+            sources.append(PartSource(ob, mesh, matrix_to_numpy(inst.matrix_world), positions, kept))
     return parts
 
 

@@ -13,6 +13,7 @@ BACKENDS = ("AUTO", "EMBREE", "BVHTREE")
 
 MAX_ORDER = 16
 MIN_SAMPLES = 2  # the API's and the Samples property's minimum
+MAX_BOUNCES = 8
 
 
 # Ray origin offset along the normal: OFFSET_REL times the world bounding-box diagonal of the
@@ -39,6 +40,7 @@ class BakeSettings:
     cull: bool = True  # skip rays where nothing can occlude (False: trace them all, for tests)
     chunk_rays: int = transfer.CHUNK_RAYS
     threads: int = None  # None: Blender's own setting (Render > Performance > Threads)
+    bounces: int = 0  # diffuse reflections between the world and the receiver (core.bounce)
 
     def validate(self):
         if (
@@ -65,7 +67,20 @@ class BakeSettings:
             isinstance(self.threads, bool) or not isinstance(self.threads, (int, np.integer)) or self.threads < 1
         ):
             raise BakeError(f"threads must be None (Blender's setting) or an integer >= 1, got {self.threads!r}")
+        if (
+            isinstance(self.bounces, bool)
+            or not isinstance(self.bounces, (int, np.integer))
+            or not 0 <= self.bounces <= MAX_BOUNCES
+        ):
+            raise BakeError(f"bounces must be an integer from 0 to {MAX_BOUNCES}, got {self.bounces!r}")
+        if self.bounces and not self.shadows:
+            raise BakeError("bounces need shadows: light only bounces off surfaces that block it (turn Shadows on)")
+        if self.bounces and self.self_shadow_only:
+            raise BakeError(
+                "bounces need the whole scene's shadows: turn Self Shadow Only off (light bounces between objects)"
+            )
         self.order, self.samples, self.seed = int(self.order), int(self.samples), int(self.seed)
+        self.bounces = int(self.bounces)
         return self
 
 
@@ -90,6 +105,11 @@ class BakeReport:
     samples: int = 0
     direction_set: str = ""
     note: str = ""  # e.g. why the slower BVH tree fallback ran
+    bounces: int = 0
+    bounce_channels: int = 0  # 0: direct only; 1: grey albedos; 3: colour
+    bounce_seconds: float = 0.0  # of the bounce passes (included in seconds)
+    bounce_points: int = 0  # points of meshes that are not baked, traced only for the bounces
+    albedo_notes: list = field(default_factory=list)  # e.g. textured colours taken as their mean
 
     @property
     def rays_per_second(self):
@@ -128,6 +148,13 @@ class BakeReport:
                 f"Noise: about {100.0 * self.error_estimate_relative:.2f} % (the bake's own estimate "
                 "of its sampling error; more samples lower it)",
             ]
+            if self.bounces:
+                colour = "in colour" if self.bounce_channels == 3 else "grey surfaces"
+                extra = (
+                    f"; {self.bounce_points:,} points of unbaked meshes traced for them" if self.bounce_points else ""
+                )
+                lines.append(f"Bounces: {self.bounces} ({colour}), {self.bounce_seconds:.2f} s, no extra rays{extra}")
+            lines += self.albedo_notes
         if self.note:
             lines.append(self.note)
         lines += [f"Skipped '{name}': {reason}" for name, reason in self.skipped]

@@ -108,9 +108,20 @@ def object_light(obj, scene, order=None):
     return light_in_local_frame(light, obj.matrix_world, order)
 
 
+def bounce_light_extra(obj, lights, order):
+    """(order**2, 3) local-frame SH of the split lights: the light of theirs that bounces (an
+    interreflected bake's bounced transfer sees the sky plus this; core.light_sh)."""
+    from ...core.light_sh import lights_sh
+
+    if not lights:
+        return np.zeros((order * order, 3))
+    return light_in_local_frame(lights_sh(lights, order), obj.matrix_world, order)
+
+
 def shade(obj, scene=None):
     """Per-element radiance (elements, 3) float64 for a white surface: max(sum_i L_i t_i, 0) per
-    channel, L in obj's local frame (what the display shader computes), plus each split light's
+    channel, L in obj's local frame (what the display shader computes; with bounces,
+    t = direct + bounced, the bounced part also lit by the split lights' SH), plus each split light's
     power / pi * max(0, n . s) * V with V traced against the scene's meshes
     (light_shading.light_radiance). One row per vertex for a POINT bake, per face corner for a
     CORNER bake."""
@@ -127,8 +138,14 @@ def shade(obj, scene=None):
         raise ValueError("the scene has no PRT lighting (project the world first)")
     transfer = storage.read_transfer(mesh, info, padded=True).astype(np.float64)
     n2 = info.order * info.order
-    radiance = np.maximum(transfer[:, :n2] @ light, 0.0)
     lights = world_lights(scene)
+    radiance = transfer[:, :n2] @ light
+    bounced = storage.read_bounce(mesh, info)
+    if bounced is not None:
+        full = light + bounce_light_extra(obj, lights, info.order)
+        for c in range(3):  # one bounced vector per channel, or one for all (grey surfaces)
+            radiance[:, c] += bounced[:, min(c, bounced.shape[1] - 1)].astype(np.float64) @ full[:, c]
+    radiance = np.maximum(radiance, 0.0)
     if lights:
         radiance += light_radiance(obj, depsgraph, lights, info)
     return radiance

@@ -20,6 +20,7 @@ def settings_from(group):
         group.shadows,
         group.self_shadow_only,
         group.backend,
+        bounces=group.bounces,
     )
 
 

@@ -24,7 +24,8 @@ def result_line(report):
     """'0.56 s - 1.5 M rays - about 3 % noise': what an artist reads of a finished bake."""
     noise = 100.0 * report.error_estimate_relative
     noise_text = f"about {noise:.0f} % noise" if noise >= 1.0 else f"under 1 % noise ({noise:.2f})"
-    return f"{report.seconds:.2f} s - {short_count(report.rays_traced)} rays - {noise_text}"
+    bounces = f" - {report.bounces} bounces" if report.bounces else ""
+    return f"{report.seconds:.2f} s - {short_count(report.rays_traced)} rays{bounces} - {noise_text}"
 
 
 class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
@@ -48,6 +49,9 @@ class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
         sub = layout.column(align=True)
         sub.enabled = settings.shadows
         sub.prop(settings, "self_shadow_only")
+        bounce_row = layout.column(align=True)
+        bounce_row.enabled = settings.shadows and not settings.self_shadow_only
+        bounce_row.prop(settings, "bounces")
         if not raytrace.EMBREE_AVAILABLE:
             if settings.backend == "EMBREE":
                 wrapped_label(layout, context, "Embree is not available here: choose Auto or BVH Tree", icon="ERROR")

@@ -8,7 +8,7 @@ scene.prt_display.
 import bpy
 
 from ...core.lights import MAX_LIGHTS
-from ..bake.settings import MAX_ORDER, MIN_SAMPLES
+from ..bake.settings import MAX_BOUNCES, MAX_ORDER, MIN_SAMPLES
 from ..world.projection import MAX_ORDER as MAX_WORLD_ORDER
 
 
@@ -129,6 +129,16 @@ class PRT_PG_bake_settings(bpy.types.PropertyGroup):
         default="FIBONACCI",
     )
     seed: bpy.props.IntProperty(name="Seed", description="Seed of the direction set", default=0, min=0)
+    bounces: bpy.props.IntProperty(
+        name="Bounces",
+        description=(
+            "Diffuse reflections between the world and the surface (as Cycles' Light Paths > Max Bounces > "
+            "Diffuse): light bounced off other surfaces, coloured by their materials. 0: direct light only"
+        ),
+        default=0,
+        min=0,
+        max=MAX_BOUNCES,
+    )
     shadows: bpy.props.BoolProperty(
         name="Shadows",
         description="Trace visibility (shadowed transfer); off: cosine only",

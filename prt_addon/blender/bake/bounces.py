@@ -1,0 +1,143 @@
+"""An interreflected bake's share of the job: the nodes light bounces off, their hits and passes.
+
+Every visible mesh instance is a part of the scene's occluder; its bake points (the same rule as
+a bake's points: vertices, or corners where normals split) are the nodes its triangles' hits are
+gathered at (core.bounce). A part that is baked reuses its plan's points and computation; any
+other part gets a computation of its own, traced once with the same directions, whose transfer
+only feeds the bounces. After the direct pass the bounce passes run on the whole node set.
+"""
+
+import numpy as np
+
+from ...core import bounce, raytrace, transfer
+from ...core.mesh import concatenate_parts
+from .. import mesh_read
+from .bounce_albedo import triangle_albedo
+from .settings import OFFSET_REL, OFFSET_ULP
+
+
+def _node_triangles(points, corners, corner_verts):
+    """The point of each triangle corner: vertex i for the POINT domain, else the corner's point."""
+    return corner_verts[corners] if points.scatter is None else points.scatter[corners]
+
+
+class BounceSystem:
+    """Nodes, hit sink and extra computations of one interreflected bake (job: its BakeJob, whose
+    plans have their points; parts and sources: scene_parts' output)."""
+
+    def __init__(self, job, parts, sources):
+        s = job.settings
+        self.bounces = s.bounces
+        self.order = s.order
+        self.pool = job._pool
+        self.notes = []
+        seen = set()
+        plan_of = {plan.obj: plan for plan in job.plans}
+        self.plan_offset = {}  # id(plan) -> its first node
+        self.node_computations = []  # (first node, computation) of parts that are not baked
+        node_triangles, albedo, extra_parts = [], [], []
+        offset = 0
+        for index, ((owner, world, triangles), src) in enumerate(zip(parts, sources)):
+            plan = plan_of.get(owner) if owner is not None else None
+            if plan is not None and id(plan) in self.plan_offset:
+                plan = None
+            points = plan.points if plan is not None else mesh_read.bake_points(src.mesh, src.matrix, src.positions)
+            corners, faces = mesh_read.read_triangle_corners(src.mesh, src.positions)
+            if src.kept is not None:
+                corners, faces = corners[src.kept], faces[src.kept]
+            local = _node_triangles(points, corners, mesh_read.read_corner_verts(src.mesh))
+            node_triangles.append(local.astype(np.int64) + offset)
+            albedo.append(triangle_albedo(src.obj, src.mesh, faces, self.notes, seen))
+            if plan is not None:
+                self.plan_offset[id(plan)] = offset
+            else:
+                extra_parts.append((index, offset, points, world, triangles, src))
+            offset += len(points.positions)
+        self.n_nodes = offset
+        albedo = np.concatenate(albedo) if albedo else np.zeros((0, 3))
+        grey = bool(np.all(albedo == albedo[:, :1]))
+        self.channels = 1 if grey else 3
+        vertices, triangles = concatenate_parts(parts)
+        self.sink = bounce.HitTransport(
+            vertices,
+            triangles,
+            np.concatenate(node_triangles) if node_triangles else np.zeros((0, 3), np.int64),
+            albedo[:, :1] if grey else albedo,
+            len(job.directions.directions),
+            seed=s.seed,
+        )
+        boxes = [raytrace.bounding_box(v) for _o, v, _t in parts]
+        for index, first, points, world, tris, src in extra_parts:
+            self.node_computations.append((first, self._computation(job, points, world, tris, src, boxes, index)))
+        self.extra_points = sum(len(c.positions) for _f, c in self.node_computations)
+        self.passes = None
+        self.bounced = {}  # id(plan) -> (P, C, nn) bounced transfer
+
+    def _computation(self, job, points, world, triangles, src, boxes, index):
+        s = job.settings
+        lower, upper = raytrace.bounding_box(world)
+        diagonal = float(np.linalg.norm(upper - lower))
+        offset = max(OFFSET_REL * diagonal, OFFSET_ULP * float(np.abs(world).max()), 1e-30)
+        self_occludes = True
+        if s.cull and not src.mesh.has_custom_normals:
+            self_occludes = not raytrace.cannot_self_occlude(world, triangles)
+        others = None
+        if s.cull:
+            others = np.array([b for k, b in enumerate(boxes) if k != index]).reshape(-1, 2, 3)
+        return transfer.TransferComputation(
+            points.positions,
+            points.normals,
+            job.directions,
+            s.order,
+            occluder=job._occluder,
+            offset=offset,
+            self_occludes=self_occludes,
+            other_boxes=others,
+            chunk_rays=s.chunk_rays,
+            threads=s.threads,
+            pool=self.pool,
+            surface=(world, triangles),
+            point_vertex=points.vertex,
+            hit_sink=self.sink,
+        )
+
+    def start_passes(self, plans):
+        """Build the transport from every computation's hits (which are then freed) and queue the
+        passes; step_pass() runs them."""
+        nn = self.order * self.order
+        direct = np.zeros((self.n_nodes, nn), dtype=np.float32)
+        entries = []
+        node_sources = [(self.plan_offset[id(p)], p.computation) for p in plans if id(p) in self.plan_offset]
+        for first, comp in node_sources + self.node_computations:
+            direct[first : first + comp.total] = comp.coeffs
+            entries += [(rows + np.int32(first), nodes, w) for rows, nodes, w in comp.hits]
+            comp.hits = []
+        matrix = bounce.Transport(entries, self.n_nodes, self.channels)
+        del entries
+        self._receivers = [p for p in plans if id(p) not in self.plan_offset]  # not in the scene
+        extra = [bounce.Transport(p.computation.hits, p.computation.total, self.channels) for p in self._receivers]
+        for p in self._receivers:
+            p.computation.hits = []
+        self.transport_bytes = matrix.nbytes + sum(r.nbytes for r in extra)
+        self.passes = bounce.BouncePasses(direct, matrix, self.bounces, extra, self.pool)
+        self._plans = plans
+
+    def step_pass(self):
+        """One bounce pass; False when all are done (the results are then in `bounced`)."""
+        more = self.passes.step()
+        if not more:
+            total = self.passes.total
+            for plan in self._plans:
+                if id(plan) in self.plan_offset:
+                    first = self.plan_offset[id(plan)]
+                    self.bounced[id(plan)] = total[first : first + plan.computation.total]
+            for plan, values in zip(self._receivers, self.passes.extra_out):
+                self.bounced[id(plan)] = values
+            if self.channels == 3:  # grey rows broadcast to the colour channels
+                for key, values in self.bounced.items():
+                    self.bounced[key] = np.broadcast_to(values, (len(values), 3, values.shape[2]))
+        return more
+
+    def close(self):
+        for _first, comp in self.node_computations:
+            comp.close()
