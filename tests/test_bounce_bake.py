@@ -1,5 +1,7 @@
 """Interreflected bakes in Blender: an open room against Cycles, storage, bad input, cancel."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -12,7 +14,9 @@ pytestmark = pytest.mark.skipif(not raytrace.EMBREE_AVAILABLE, reason="embreex n
 
 def diffuse_material(bpy, name, rgb):
     m = bpy.data.materials.new(name)
-    m.use_nodes = True
+    with warnings.catch_warnings():  # (use_nodes is deprecated in Blender 5 and still needed in 4.2)
+        warnings.simplefilter("ignore", DeprecationWarning)
+        m.use_nodes = True
     nodes = m.node_tree.nodes
     nodes.clear()
     out = nodes.new("ShaderNodeOutputMaterial")
@@ -37,7 +41,9 @@ def open_room(bpy, scene, hdri=None, red=(0.8, 0.1, 0.1)):
     at the top and the front, with Suzanne inside; a uniform white world or an HDRI."""
     world = bpy.data.worlds.new("room world")
     scene.world = world
-    world.use_nodes = True
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        world.use_nodes = True
     background = world.node_tree.nodes["Background"]
     if hdri is None:
         background.inputs[0].default_value = (1.0, 1.0, 1.0, 1.0)
@@ -215,3 +221,42 @@ def test_unbaked_meshes_bounce_light_too(bpy_module, empty_scene):
     all_baked = api.shade(objs[0], empty_scene)
     assert bounced.mean() > 1.2 * direct.mean()
     np.testing.assert_allclose(bounced, all_baked, rtol=1e-4, atol=1e-6)  # the same light either way
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("order, hdri", [(2, None), (4, "courtyard")])
+def test_viewport_draws_the_bounced_transfer_as_shade_computes_it(bpy_module, empty_scene, order, hdri):
+    """Order 2 in colour fits the vertex attributes, order 4 in colour (16 vec4s) uses the
+    transfer texture; under courtyard.exr the split lights' SH lights the bounced part."""
+    import math
+
+    from prt_addon.blender.display import offscreen
+
+    assert offscreen.ensure_gpu()
+    bpy = bpy_module
+    objs = open_room(bpy, empty_scene, hdri=hdri)
+    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+    empty_scene.collection.objects.link(cam)
+    cam.location, cam.rotation_euler = (0.0, -7.0, 5.0), (math.radians(55), 0.0, 0.0)
+    empty_scene.camera = cam
+    empty_scene.prt_display.albedo_source = "WHITE"
+    api.project_world(empty_scene, order)
+    api.bake(objs, order=order, samples=64, bounces=2)
+    size = 256
+    image = api.render_view(empty_scene, size, size)
+    floor = objs[0]
+    expected = api.shade(floor, empty_scene)
+    p = np.array([floor.matrix_world @ v.co for v in floor.data.vertices])
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    proj = np.array(cam.calc_matrix_camera(depsgraph, x=size, y=size)) @ np.array(cam.matrix_world.inverted())
+    clip = np.c_[p, np.ones(len(p))] @ proj.T
+    ndc = clip[:, :2] / clip[:, 3:4]
+    cols = np.floor((ndc[:, 0] + 1) * 0.5 * size).astype(int)
+    rows = np.floor((1 - ndc[:, 1]) * 0.5 * size).astype(int)
+    inside = (cols >= 1) & (cols < size - 1) & (rows >= 1) & (rows < size - 1) & (np.abs(p[:, 0]) < 1.8)
+    inside &= (p[:, 1] > -1.8) & (p[:, 1] < 1.8) & (np.hypot(p[:, 0], p[:, 1]) > 1.2)  # not behind Suzanne
+    got = image[rows[inside], cols[inside], :3]
+    want = expected[inside]
+    err = np.abs(got - want) / (np.abs(want) + 0.05)
+    assert inside.sum() > 40
+    assert np.median(err) < 0.01, np.median(err)  # (away from shadow edges: the sun's shadow map)

@@ -14,7 +14,7 @@ import numpy as np
 from .. import storage
 from .albedo import _slot_tints, display_settings, material_colour
 from .gpu_cache import ObjectState, _object_cache, _prune, clear_caches, get_mesh_entry
-from .lighting import exposure_scale, light_in_local_frame, world_light, world_lights
+from .lighting import bounce_light_extra, exposure_scale, light_in_local_frame, world_light, world_lights
 from .shader import get_shader, light_ubo_bytes
 from .shader_suns import MAX_SUNS, suns_ubo_bytes
 from .shadows import update_shadow_maps
@@ -57,7 +57,9 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
     light_tag = (light.shape, light.tobytes())
     vp = mathutils.Matrix(np.asarray(view_projection, dtype=np.float64).tolist())
     albedo_mode, albedo_attr = display_settings(scene)
-    suns = list(world_lights(scene))[:MAX_SUNS] if objects else []
+    all_lights = list(world_lights(scene)) if objects else []
+    suns = all_lights[:MAX_SUNS]
+    lights_tag = tuple((tuple(x.direction), tuple(x.power), x.angle) for x in all_lights)
     maps = update_shadow_maps(scene, suns, depsgraph) if suns else []
     drawn = 0
     for obj in objects:
@@ -67,13 +69,16 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
         entry = get_mesh_entry(obj.data, info, albedo_mode, albedo_attr, obj, depsgraph)
         if not entry.batches:
             continue
-        shader = get_shader(info.count, len(suns))
+        shader = get_shader(info.count, len(suns), info.channels)
         state = _object_cache.setdefault(obj.as_pointer(), ObjectState())
         mw = np.array(obj.matrix_world, dtype=np.float64)
-        light_key = (light_tag, mw[:3, :3].tobytes(), info.order, info.count)
+        size_key = (info.count, info.channels)
+        light_key = (light_tag, mw[:3, :3].tobytes(), info.order, size_key, lights_tag if info.channels else None)
         if state.ubo is None or state.light_key != light_key:
-            data = light_ubo_bytes(light_in_local_frame(light, mw, info.order), info.count)
-            if state.ubo is None or state.light_key is None or state.light_key[3] != info.count:
+            local = light_in_local_frame(light, mw, info.order)
+            bounce = local + bounce_light_extra(obj, all_lights, info.order) if info.channels else None
+            data = light_ubo_bytes(local, info.count, bounce)
+            if state.ubo is None or state.light_key is None or state.light_key[3] != size_key:
                 state.ubo = gpu.types.GPUUniformBuf(data)
             else:
                 state.ubo.update(data)

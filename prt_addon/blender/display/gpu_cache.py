@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import mesh_read, storage
 from .albedo import element_albedo, element_count
-from .shader import shader_mode
+from .shader import shader_mode, transfer_vec4s
 
 
 class MeshEntry:
@@ -61,8 +61,13 @@ def _cache_key(mesh, info, albedo_mode, albedo_attr):
 
 
 def read_transfer(mesh, info):
-    """(elements, 4 * count) float32: t_0 .. t_{4 count - 1} per element (padding channels 0)."""
-    return storage.read_transfer(mesh, info, padded=True)
+    """(elements, 4 * vec4s) float32: the direct transfer t_0 .. t_{4 count - 1} per element
+    (padding channels 0), then each bounce channel's, padded the same (shader.transfer_vec4s)."""
+    direct = storage.read_transfer(mesh, info, padded=True)
+    bounced = storage.read_bounce(mesh, info, padded=True)
+    if bounced is None:
+        return direct
+    return np.ascontiguousarray(np.concatenate([direct, bounced.reshape(len(bounced), -1)], axis=1))
 
 
 def deformed_mesh(obj, depsgraph):
@@ -112,13 +117,14 @@ def build_mesh_entry(
     transfer = read_transfer(mesh, info)
     albedo = element_albedo(mesh, info.domain, albedo_mode, albedo_attr)
 
-    mode = shader_mode(info.count)
+    vec4s = transfer_vec4s(info.count, info.channels)
+    mode = shader_mode(vec4s)
     fmt = gpu.types.GPUVertFormat()
     fmt.attr_add(id="prt_pos", comp_type="F32", len=3, fetch_mode="FLOAT")
     fmt.attr_add(id="prt_albedo", comp_type="F32", len=4, fetch_mode="FLOAT")
     fmt.attr_add(id="prt_nrm", comp_type="F32", len=3, fetch_mode="FLOAT")
     if mode == "ATTR":
-        for k in range(info.count):
+        for k in range(vec4s):
             fmt.attr_add(id=f"prt_t{k}", comp_type="F32", len=4, fetch_mode="FLOAT")
     vbo = gpu.types.GPUVertBuf(fmt, n)
     vbo.attr_fill("prt_pos", positions)
@@ -126,10 +132,10 @@ def build_mesh_entry(
     vbo.attr_fill("prt_nrm", np.ascontiguousarray(normals, dtype=np.float32))
     texture, per_row = None, 0
     if mode == "ATTR":
-        for k in range(info.count):
+        for k in range(vec4s):
             vbo.attr_fill(f"prt_t{k}", np.ascontiguousarray(transfer[:, 4 * k : 4 * k + 4]))
     else:
-        texture, per_row = _transfer_texture(transfer, info.count)
+        texture, per_row = _transfer_texture(transfer, vec4s)
 
     batches = []
     if ntri:

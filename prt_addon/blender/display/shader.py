@@ -52,16 +52,33 @@ def shader_mode(count):
     return "ATTR" if count <= MAX_ATTRIBUTE_TRANSFER else "TEXTURE"
 
 
-def get_shader(count, lights=0):
-    """Compiled shader for `count` transfer vec4s and `lights` suns (cached). Raises RuntimeError
-    on failure. lights = 0 is the plain PRT shader."""
-    mode = shader_mode(count)
-    key = (mode, count) if not lights else (mode, count, lights)
+def _bounce_lines(fetch, k, count, channels):
+    """Lines adding the bounced transfer's k-th vec4s (one per channel, or one for all when
+    channels == 1) against light.b, the sky plus the split lights' SH (core.light_sh)."""
+    t = [fetch(count * (1 + (c if channels == 3 else 0)) + k) for c in range(3)]
+    return (
+        f"  r += vec3(dot({t[0]}, light.b[{k}]), dot({t[1]}, light.b[{count + k}]), "
+        f"dot({t[2]}, light.b[{2 * count + k}]));"
+    )
+
+
+def transfer_vec4s(count, bounce_channels=0):
+    """vec4s per element: the direct transfer's `count`, then `count` per bounce channel."""
+    return count * (1 + bounce_channels)
+
+
+def get_shader(count, lights=0, bounce_channels=0):
+    """Compiled shader for `count` transfer vec4s per part, `lights` suns and a bounced transfer
+    of `bounce_channels` channels (0: none) (cached). Raises RuntimeError on failure."""
+    total = transfer_vec4s(count, bounce_channels)
+    mode = shader_mode(total)
+    key = (mode, count, lights, bounce_channels)
     shader = _shaders.get(key)
     if shader is not None:
         return shader
     info = gpu.types.GPUShaderCreateInfo()
-    typedefs = f"struct PRTLight {{ vec4 c[{3 * count}]; }};\n"
+    bounce_block = f" vec4 b[{3 * count}];" if bounce_channels else ""
+    typedefs = f"struct PRTLight {{ vec4 c[{3 * count}];{bounce_block} }};\n"
     if lights:
         from .shader_suns import UBO_SOURCE
 
@@ -75,25 +92,37 @@ def get_shader(count, lights=0):
     info.vertex_in(0, "VEC3", "prt_pos")
     info.vertex_in(1, "VEC4", "prt_albedo")
     if mode == "ATTR":
-        for k in range(count):
+        for k in range(total):
             info.vertex_in(2 + k, "VEC4", f"prt_t{k}")
-        body = "\n".join(_dot_line(f"prt_t{k}", k, count) for k in range(count))
+        lines = [_dot_line(f"prt_t{k}", k, count) for k in range(count)]
+        if bounce_channels:
+            lines += [_bounce_lines(lambda j: f"prt_t{j}", k, count, bounce_channels) for k in range(count)]
+        body = "\n".join(lines)
     else:
         info.push_constant("INT", "per_row")
         info.sampler(0, "FLOAT_2D", "transfer_tx")
+        bounce = ""
+        if bounce_channels:
+            part = [count * (1 + (c if bounce_channels == 3 else 0)) for c in range(3)]
+            fetch = [f"texelFetch(transfer_tx, ivec2(col + {p} + k, row), 0)" for p in part]
+            bounce = (
+                f"    r += vec3(dot({fetch[0]}, light.b[k]), dot({fetch[1]}, light.b[{count} + k]),\n"
+                f"              dot({fetch[2]}, light.b[{2 * count} + k]));\n"
+            )
         body = (
-            "  int col = (gl_VertexID % per_row) * " + str(count) + ";\n"
+            "  int col = (gl_VertexID % per_row) * " + str(total) + ";\n"
             "  int row = gl_VertexID / per_row;\n"
             f"  for (int k = 0; k < {count}; k++) {{\n"
             "    vec4 t = texelFetch(transfer_tx, ivec2(col + k, row), 0);\n"
             f"    r += vec3(dot(t, light.c[k]), dot(t, light.c[{count} + k]), "
             f"dot(t, light.c[{2 * count} + k]));\n"
+            f"{bounce}"
             "  }"
         )
     if lights:
         from .shader_suns import add_suns
 
-        vertex, fragment = add_suns(info, lights, _VERTEX_COMMON % body, 2 + count if mode == "ATTR" else 2)
+        vertex, fragment = add_suns(info, lights, _VERTEX_COMMON % body, 2 + total if mode == "ATTR" else 2)
     else:
         iface = gpu.types.GPUStageInterfaceInfo("prt_iface")
         iface.smooth("VEC3", "radiance")
@@ -107,9 +136,14 @@ def get_shader(count, lights=0):
     return shader
 
 
-def light_ubo_bytes(light_local, count):
-    """std140 bytes of PRTLight: c[ch * count + k] = (L_{4k..4k+3}, channel ch), zero-padded."""
-    padded = np.zeros((4 * count, 3), dtype=np.float32)
-    n = min(len(light_local), 4 * count)
-    padded[:n] = light_local[:n]
-    return np.ascontiguousarray(padded.T.reshape(3, count, 4)).tobytes()
+def light_ubo_bytes(light_local, count, bounce_light=None):
+    """std140 bytes of PRTLight: c[ch * count + k] = (L_{4k..4k+3}, channel ch), zero-padded;
+    then, for a bounced bake, b laid out the same from bounce_light (the sky plus the split
+    lights' SH, what the bounced transfer sees)."""
+    blocks = []
+    for values in (light_local,) if bounce_light is None else (light_local, bounce_light):
+        padded = np.zeros((4 * count, 3), dtype=np.float32)
+        n = min(len(values), 4 * count)
+        padded[:n] = values[:n]
+        blocks.append(np.ascontiguousarray(padded.T.reshape(3, count, 4)).tobytes())
+    return b"".join(blocks)
