@@ -58,7 +58,7 @@ def open_room(bpy, scene, hdri=None, red=(0.8, 0.1, 0.1)):
         grid(bpy, "wall_white", (2, 0, 2), (0, -np.pi / 2, 0), white),
         grid(bpy, "wall_back", (0, 2, 2), (np.pi / 2, 0, 0), white),
     ]
-    bpy.ops.mesh.primitive_monkey_add(location=(0, 0, 0.7))
+    bpy.ops.mesh.primitive_monkey_add(location=(0, 0, 0.7), size=1.0)
     suzanne = bpy.context.active_object
     suzanne.name = "Suzanne"
     suzanne.modifiers.new("subdivision", "SUBSURF").levels = 1

@@ -111,11 +111,12 @@ class Transport:
         self.n_rows = int(n_rows)
         self.channels = int(channels)
         if parts:
-            rows = np.concatenate([p[0] for p in parts])
-            order = np.argsort(rows, kind="stable")
-            self.rows = rows[order]
-            self.nodes = np.concatenate([p[1] for p in parts])[order]
-            self.weights = np.concatenate([p[2] for p in parts])[order]
+            self.rows = np.concatenate([p[0] for p in parts])
+            self.nodes = np.concatenate([p[1] for p in parts])
+            self.weights = np.concatenate([p[2] for p in parts])
+            if len(self.rows) > 1 and np.any(self.rows[1:] < self.rows[:-1]):  # (slices come in point order)
+                order = np.argsort(self.rows, kind="stable")
+                self.rows, self.nodes, self.weights = self.rows[order], self.nodes[order], self.weights[order]
         else:
             self.rows = np.zeros(0, np.int32)
             self.nodes = np.zeros(0, np.int32)
@@ -143,8 +144,11 @@ class Transport:
     def _apply_chunk(self, x, out, a, b):
         lo = self.starts[a]
         hi = self.starts[b] if b < len(self.starts) else len(self.rows)
-        gathered = x[self.nodes[lo:hi]]  # (m, Cx, nn)
-        gathered = gathered * self.weights[lo:hi, :, None]  # (m, C, nn), Cx = 1 broadcast to C
+        gathered = np.take(x, self.nodes[lo:hi], axis=0)  # (m, Cx, nn)
+        if gathered.shape[1] == self.weights.shape[1]:
+            gathered *= self.weights[lo:hi, :, None]
+        else:
+            gathered = gathered * self.weights[lo:hi, :, None]  # (m, C, nn), Cx = 1 broadcast to C
         out[self.row_ids[a:b]] = np.add.reduceat(gathered, self.starts[a:b] - lo, axis=0)
 
     def apply(self, x: np.ndarray, pool: Executor | None = None) -> np.ndarray:

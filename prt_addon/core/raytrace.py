@@ -79,6 +79,7 @@ class EmbreeOccluder:
         if len(t) == 0:
             raise ValueError("an occluder needs at least one triangle")
         self.triangle_count = len(t)
+        self._vertices, self._triangles = v, t  # (first_hits' barycentrics)
         self._scene = _embree_scene.EmbreeScene(robust=robust)
         self.geometry = "COPIED"
         if shared and embree_buffers.available():
@@ -106,9 +107,24 @@ class EmbreeOccluder:
         d = np.asarray(directions, dtype=np.float32)
         if len(o) == 0:
             return np.zeros(0, np.int32), np.zeros(0, np.float32), np.zeros(0, np.float32)
-        # Embree's u, v weigh the triangle's second and third corners.
-        hit = self._scene.run(o, d, query="INTERSECT", output=1)
-        return hit["primID"], hit["u"], hit["v"]
+        # The primitive alone (embreex's full output costs ~1.4 times as much with two threads),
+        # then the barycentrics of the hits only, by Moller and Trumbore (1997):
+        # u = (o - a) . (d x e2) / det, v = d . ((o - a) x e1) / det, det = e1 . (d x e2).
+        prims = self._scene.run(o, d, query="INTERSECT")
+        u = np.zeros(len(o), np.float32)
+        v = np.zeros(len(o), np.float32)
+        hit = np.flatnonzero(prims >= 0)
+        if len(hit):
+            corners = self._vertices[self._triangles[prims[hit]]].astype(np.float64)  # (m, 3, 3)
+            e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+            dh, th = d[hit].astype(np.float64), o[hit] - corners[:, 0]
+            p = np.cross(dh, e2)
+            q = np.cross(th, e1)
+            det = np.einsum("ij,ij->i", e1, p)
+            det = np.where(det != 0.0, det, 1.0)
+            u[hit] = np.einsum("ij,ij->i", th, p) / det
+            v[hit] = np.einsum("ij,ij->i", dh, q) / det
+        return prims, u, v
 
 
 def bounding_box(vertices: npt.ArrayLike) -> np.ndarray:

@@ -1,0 +1,135 @@
+"""Benchmark of interreflected bakes: bounces against the direct bake, side by side. Run from the
+repository root:
+
+    .venv/bin/python benchmarks/bench_bounce.py            # bench_bake's scene, then 1M-vertex memory
+    .venv/bin/python benchmarks/bench_bounce.py --quick    # smaller scene, smaller memory grid
+
+Prints, on bench_bake.py's scene (subdivided Suzanne on a ground grid), medians [min - max] of
+interleaved repeats of the whole api.bake call with bounces = 0, 1 and 3 and their ratios to the
+direct bake (target: 3 bounces at most 1.5 times the direct bake), the time of the shadow pass's
+two queries on the bake's own rays (Embree's OCCLUDED, which a direct bake uses, and INTERSECT
+with hits, which a bounced bake needs), and the peak memory (VmHWM) of a direct and a 3-bounce bake
+of a 1M-vertex wavy grid in fresh processes.
+"""
+
+import argparse
+import os
+import subprocess
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
+
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+import prt_addon  # noqa: E402
+from prt_addon import api  # noqa: E402
+from prt_addon.core import raytrace  # noqa: E402
+from bench_bake import build_scene, same_rays, spread, vm_kib  # noqa: E402
+
+
+def query_seconds(occ, batches):
+    """(OCCLUDED seconds, INTERSECT seconds) over the bake's batches, one thread each."""
+    times = []
+    for query in ("occluded", "first_hits"):
+        t0 = time.perf_counter()
+        for origins, dirs in batches:
+            getattr(occ, query)(origins, dirs)
+        times.append(time.perf_counter() - t0)
+    return times
+
+
+def speed(args):
+    objects = build_scene(args.subdiv, args.grid)
+    points = sum(len(o.data.vertices) for o in objects)
+    print(f"scene: {points:,} vertices, order {args.order}, {args.samples} directions, {args.threads} threads")
+    api.bake(objects, order=args.order, samples=args.samples, threads=args.threads)  # warm-up
+    runs = {b: [] for b in (0, 1, 3)}
+    reports = {}
+    for _ in range(args.repeats):
+        for bounces in runs:
+            t0 = time.perf_counter()
+            reports[bounces] = api.bake(
+                objects, order=args.order, samples=args.samples, bounces=bounces, threads=args.threads
+            )
+            runs[bounces].append(time.perf_counter() - t0)
+    for bounces, seconds in runs.items():
+        ratios = [s / d for s, d in zip(seconds, runs[0])]
+        extra = f", passes {reports[bounces].bounce_seconds:.2f} s" if bounces else ""
+        print(f"  bounces={bounces}: {spread(seconds)} s, / direct {spread(ratios)}{extra}")
+    vertices, triangles, _o, _d, batches = same_rays(objects, args.samples)
+    occ = raytrace.EmbreeOccluder(vertices, triangles)
+    occluded, intersect = [], []
+    for _ in range(3):
+        a, b = query_seconds(occ, batches)
+        occluded.append(a)
+        intersect.append(b)
+    rays = sum(len(o) for o, _d in batches)
+    print(
+        f"  shadow-pass query on the bake's {rays:,} rays (one thread): OCCLUDED {spread(occluded)} s, "
+        f"INTERSECT with hits {spread(intersect)} s, ratio {spread([b / a for a, b in zip(occluded, intersect)])}"
+    )
+
+
+def memory_child(bounces, side):
+    prt_addon.register()
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=side - 1, y_subdivisions=side - 1, size=10)
+    grid = bpy.context.object
+    wave = grid.modifiers.new("Wave", "WAVE")
+    wave.height, wave.width, wave.narrowness = 0.6, 1.2, 0.5
+    bpy.ops.object.modifier_apply(modifier="Wave")
+    grid.data.shade_smooth()
+    before = vm_kib("VmRSS")
+    report = api.bake([grid], order=4, samples=256, bounces=bounces)
+    peak = vm_kib("VmHWM")
+    print(f"{len(grid.data.vertices)} {bounces} {before} {peak} {report.rays_traced} {report.seconds:.2f}")
+
+
+def memory(args):
+    print(f"peak memory, {args.side**2:,}-vertex wavy grid (order 4, 256 directions), fresh process per run:")
+    for bounces in (0, 3):
+        out = subprocess.run(
+            [sys.executable, os.path.abspath(__file__), "--memory-child", str(bounces), "--side", str(args.side)],
+            capture_output=True,
+            text=True,
+            cwd=ROOT,
+        )
+        line = [l for l in out.stdout.splitlines() if l and l[0].isdigit()]
+        if out.returncode or not line:
+            print("  failed:", out.stderr[-2000:])
+            continue
+        verts, b, before, peak, rays, seconds = line[-1].split()
+        print(
+            f"  bounces={b}: {int(verts):,} vertices, peak {int(peak) / 1024:.0f} MiB "
+            f"(+{(int(peak) - int(before)) / 1024:.0f} MiB over the scene), {int(rays):,} rays, {seconds} s"
+        )
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--samples", type=int, default=256)
+    parser.add_argument("--order", type=int, default=4)
+    parser.add_argument("--threads", type=int, default=None)
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--memory-child", type=int, default=-1)
+    parser.add_argument("--side", type=int, default=1000)
+    args = parser.parse_args()
+    if args.memory_child >= 0:
+        memory_child(args.memory_child, args.side)
+        return
+    args.subdiv, args.grid = (2, 60) if args.quick else (3, 150)
+    if args.quick:
+        args.side, args.repeats = 300, 3
+    prt_addon.register()
+    speed(args)
+    memory(args)
+    np.asarray(0)
+
+
+if __name__ == "__main__":
+    main()
