@@ -33,7 +33,7 @@ GATHER_VALUES = 1 << 22
 
 
 def _hash_unit(rows: np.ndarray, kdir: np.ndarray, seed: int) -> np.ndarray:
-    """Uniform [0, 1) float64 per (row, direction): murmur3's 32-bit finaliser of a mix."""
+    """Uniform [0, 1] float32 per (row, direction): murmur3's 32-bit finaliser of a mix."""
     with np.errstate(over="ignore"):
         h = rows.astype(np.uint32) * np.uint32(0x9E3779B1)
         h ^= kdir.astype(np.uint32) * np.uint32(0x85EBCA77) + np.uint32(seed & 0xFFFFFFFF)
@@ -42,7 +42,7 @@ def _hash_unit(rows: np.ndarray, kdir: np.ndarray, seed: int) -> np.ndarray:
         h ^= h >> np.uint32(13)
         h *= np.uint32(0xC2B2AE35)
         h ^= h >> np.uint32(16)
-    return h * (1.0 / 4294967296.0)
+    return h.astype(np.float32) * np.float32(1.0 / 4294967296.0)
 
 
 class HitTransport:
@@ -89,16 +89,17 @@ class HitTransport:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(rows int32, nodes int32, weights (m, C) float32) of the hits: point `rows[j]` saw
         triangle `prims[j]` along `dirs[j]` at barycentrics (u, v), with max(0, n . w) `cosines[j]`."""
-        prims = np.asarray(prims, dtype=np.intp)
+        prims = np.asarray(prims)
         n = self.normals[prims]
         d = np.asarray(dirs, dtype=np.float32)
         front = (n[:, 0] * d[:, 0] + n[:, 1] * d[:, 1] + n[:, 2] * d[:, 2]) < 0.0
         xi = _hash_unit(np.asarray(rows), np.asarray(kdir), self.seed)
-        u = np.asarray(bary_u, dtype=np.float64)
-        corner = np.where(xi < u, 1, np.where(xi < u + np.asarray(bary_v, dtype=np.float64), 2, 0))
-        nodes = self.node_triangles[prims, corner]
+        u = np.asarray(bary_u, dtype=np.float32)
+        corner = np.where(xi < u, 1, np.where(xi < u + np.asarray(bary_v, dtype=np.float32), 2, 0))
+        nodes = self.node_triangles.reshape(-1)[prims * 3 + corner]
         keep = front & (nodes >= 0)
-        weights = self.albedo[prims[keep]] * (np.asarray(cosines, dtype=np.float32)[keep, None] * self.scale)
+        kept = prims[keep]
+        weights = self.albedo[kept] * (np.asarray(cosines, dtype=np.float32)[keep, None] * np.float32(self.scale))
         return np.asarray(rows, dtype=np.int32)[keep], nodes[keep], weights.astype(np.float32)
 
 

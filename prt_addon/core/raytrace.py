@@ -115,16 +115,29 @@ class EmbreeOccluder:
         v = np.zeros(len(o), np.float32)
         hit = np.flatnonzero(prims >= 0)
         if len(hit):
-            corners = self._vertices[self._triangles[prims[hit]]].astype(np.float64)  # (m, 3, 3)
-            e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
-            dh, th = d[hit].astype(np.float64), o[hit] - corners[:, 0]
-            p = np.cross(dh, e2)
-            q = np.cross(th, e1)
-            det = np.einsum("ij,ij->i", e1, p)
-            det = np.where(det != 0.0, det, 1.0)
-            u[hit] = np.einsum("ij,ij->i", th, p) / det
-            v[hit] = np.einsum("ij,ij->i", dh, q) / det
+            tri = self._triangles[prims[hit]]
+            a = self._vertices[tri[:, 0]]
+            e1, e2 = self._vertices[tri[:, 1]] - a, self._vertices[tri[:, 2]] - a
+            dh, th = d[hit], o[hit] - a
+            p, q = _cross(dh, e2), _cross(th, e1)
+            det = _dot(e1, p)
+            det[det == 0.0] = 1.0
+            u[hit] = _dot(th, p) / det
+            v[hit] = _dot(dh, q) / det
         return prims, u, v
+
+
+def _cross(a, b):
+    """Row-wise cross product of (n, 3) arrays, column by column (np.cross is ~3 times slower)."""
+    out = np.empty_like(a)
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
+
+
+def _dot(a, b):
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 
 
 def bounding_box(vertices: npt.ArrayLike) -> np.ndarray:
