@@ -260,3 +260,71 @@ def test_viewport_draws_the_bounced_transfer_as_shade_computes_it(bpy_module, em
     err = np.abs(got - want) / (np.abs(want) + 0.05)
     assert inside.sum() > 40
     assert np.median(err) < 0.01, np.median(err)  # (away from shadow edges: the sun's shadow map)
+
+
+def test_export_carries_the_bounced_transfer(bpy_module, empty_scene, tmp_path):
+    """Re-imported by Blender's glTF importer, the bounced attributes after the direct ones are
+    the stored bounced transfer per channel (in glTF's frame), as docs/export.md specifies."""
+    from test_export import _assert_rows_match, _from_gltf, _stored_rows
+
+    from prt_addon.blender import storage
+
+    bpy = bpy_module
+    objs = open_room(bpy, empty_scene)
+    api.project_world(empty_scene, 2)
+    api.bake(objs, order=2, samples=32, bounces=1)
+    wall = objs[1]
+    pos, direct = _stored_rows(wall)
+    bounced = storage.read_bounce(wall.data).astype(np.float64)
+    name = wall.name
+    path = api.export_gltf(str(tmp_path / "room.glb"), [wall])
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.import_scene.gltf(filepath=path)
+    mesh = bpy.data.objects[name].data
+    extras = mesh.get("PRT_lighting")
+    assert extras["bounce_channels"] == 3 and extras["per_channel"] and extras["bounces"] == 1
+    assert list(extras["bounce_attributes"]) == ["_PRT_T1", "_PRT_T2", "_PRT_T3"]
+
+    def column(k):
+        attr = mesh.attributes[f"_PRT_T{k}"]
+        buf = np.empty(len(attr.data) * 4, np.float32)
+        attr.data.foreach_get("color" if attr.data_type in ("FLOAT_COLOR", "BYTE_COLOR") else "vector", buf)
+        return buf.reshape(-1, 4).astype(np.float64)
+
+    co = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3).astype(np.float64)
+    _assert_rows_match(pos, direct, co, _from_gltf(column(0)))
+    for c in range(3):
+        _assert_rows_match(pos, bounced[:, c], co, _from_gltf(column(1 + c)))
+
+
+def test_textured_and_over_bright_albedo(bpy_module, empty_scene):
+    """A wall coloured by an image bounces its mean colour; an albedo above 1 is clamped to 1."""
+    from prt_addon.blender import storage
+
+    bpy = bpy_module
+    objs = open_room(bpy, empty_scene)
+    api.project_world(empty_scene, 2)
+    red = objs[1].data.materials[0]
+    image = bpy.data.images.new("tex", 2, 2, float_buffer=True)
+    pixels = np.array([[0.9, 0.1, 0.1, 1], [0.5, 0.3, 0.1, 1], [0.7, 0.2, 0.0, 1], [0.1, 0.2, 0.4, 1]], np.float32)
+    image.pixels.foreach_set(pixels.ravel())
+    texture = red.node_tree.nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    bsdf = red.node_tree.nodes["Diffuse BSDF"]
+    red.node_tree.links.new(texture.outputs["Color"], bsdf.inputs["Color"])
+    report = api.bake(objs, order=2, samples=64, bounces=1)
+    assert any("mean colour of its image 'tex'" in note for note in report.albedo_notes)
+    textured = storage.read_bounce(objs[0].data).copy()
+    red.node_tree.links.remove(bsdf.inputs["Color"].links[0])
+    bsdf.inputs["Color"].default_value = (*pixels[:, :3].mean(axis=0), 1.0)
+    api.bake(objs, order=2, samples=64, bounces=1)
+    np.testing.assert_allclose(textured, storage.read_bounce(objs[0].data), rtol=1e-5, atol=1e-7)
+    bsdf.inputs["Color"].default_value = (1.5, 0.2, 0.2, 1.0)
+    report = api.bake(objs, order=2, samples=64, bounces=1)
+    assert any("clamped" in note for note in report.albedo_notes)
+    bright = storage.read_bounce(objs[0].data).copy()
+    bsdf.inputs["Color"].default_value = (1.0, 0.2, 0.2, 1.0)
+    api.bake(objs, order=2, samples=64, bounces=1)
+    np.testing.assert_array_equal(bright, storage.read_bounce(objs[0].data))

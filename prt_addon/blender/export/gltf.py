@@ -134,18 +134,26 @@ def mesh_extras(bake):
         "domain": bake.domain,
         "frame": "GLTF_NODE_LOCAL",
         "sh_convention": "REAL_ORTHONORMAL_NO_CONDON_SHORTLEY",
-        "per_channel": False,
+        "per_channel": bake.channels == 3,
         "shadows": bool(bake.record.get("shadows", False)),
+        "bounces": int(bake.record.get("bounces", 0)),
+        "bounce_channels": int(bake.channels),
+        "bounce_attributes": [attribute_name(k) for k in range(bake.count, bake.count * (1 + bake.channels))],
     }
 
 
 def _add_attributes(mesh, bake, added):
-    """Write the transfer (rotated to glTF's frame) as _PRT_Tk, appending each name to `added`."""
-    values = storage.read_transfer(mesh, bake).astype(np.float64)
-    rotated = to_gltf_frame(values.T).T.astype(np.float32)
-    packed = np.zeros((rotated.shape[0], bake.count * 4), dtype=np.float32)
-    packed[:, : rotated.shape[1]] = rotated
-    for k in range(bake.count):
+    """Write the transfer (rotated to glTF's frame) as _PRT_Tk, appending each name to `added`;
+    a bounced bake's channels follow the direct block, padded the same (docs/export.md)."""
+    parts = [storage.read_transfer(mesh, bake)]
+    bounced = storage.read_bounce(mesh, bake)
+    if bounced is not None:
+        parts += [bounced[:, c] for c in range(bounced.shape[1])]
+    packed = np.zeros((parts[0].shape[0], bake.count * 4 * len(parts)), dtype=np.float32)
+    for p, values in enumerate(parts):
+        rotated = to_gltf_frame(values.astype(np.float64).T).T.astype(np.float32)
+        packed[:, bake.count * 4 * p : bake.count * 4 * p + rotated.shape[1]] = rotated
+    for k in range(bake.count * len(parts)):
         name = attribute_name(k)
         if mesh.attributes.get(name) is not None:
             raise ExportError(f"mesh '{mesh.name}' already has an attribute '{name}'; rename it to export")
