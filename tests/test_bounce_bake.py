@@ -92,11 +92,25 @@ def cycles_bake(bpy, scene, objs, passes, bounces, samples):
     return out
 
 
+def lights_bounce(obj, scene):
+    """The part of obj's shading that is the split lights' bounced light (their SH through the
+    bounced transfer), per element and channel."""
+    from prt_addon.blender import storage
+    from prt_addon.blender.display import lighting
+
+    info, _ = storage.usable_bake(obj.data)
+    bounced = storage.read_bounce(obj.data, info).astype(np.float64)
+    extra = lighting.bounce_light_extra(obj, lighting.world_lights(scene), info.order)
+    return np.stack([bounced[:, min(c, bounced.shape[1] - 1)] @ extra[:, c] for c in range(3)], axis=1)
+
+
 @pytest.mark.cycles
 def test_open_room_bounces_match_cycles_and_the_red_wall_bleeds(bpy_module, empty_scene):
+    """city.exr: a small, bright sun split off as a light; its light reaches the room's floor and
+    walls through the open top and must bounce (Cycles bounces every light)."""
     bpy = bpy_module
-    objs = open_room(bpy, empty_scene, hdri="courtyard")
-    api.project_world(empty_scene, 8)  # the split's lights bounce through their SH (core.light_sh)
+    objs = open_room(bpy, empty_scene, hdri="city")
+    api.project_world(empty_scene, 8)
     assert api.world_lights(empty_scene)
     api.bake(objs, order=8, samples=512)
     direct = {o.name: api.shade(o, empty_scene) for o in objs}
@@ -108,10 +122,14 @@ def test_open_room_bounces_match_cycles_and_the_red_wall_bleeds(bpy_module, empt
     for obj in objs:
         ours = bounced[obj.name] - direct[obj.name]  # the indirect part: the direct band limit cancels
         theirs = c_total[obj.name] - c_direct[obj.name]
-        # Per object and channel, the mean indirect light: measured within 2 % under a uniform
-        # world (test below); under courtyard.exr the bounced light inherits the order-8 band
-        # limit of the direct light it gathers (and the split lights' SH), measured up to 8 %.
-        np.testing.assert_allclose(ours.mean(axis=0), theirs.mean(axis=0), rtol=0.12, err_msg=obj.name)
+        without_lights = ours - lights_bounce(obj, empty_scene)
+        # Per object and channel, the mean indirect light. Under a uniform world it agreed within
+        # 2 % (test below); here the bounced light also inherits the order-8 band limit of the
+        # direct light it gathers, the sun's included. Without the sun's bounce it is 15 to 36 %
+        # low (the sun's share of the indirect light), which this tolerance would catch.
+        np.testing.assert_allclose(ours.mean(axis=0), theirs.mean(axis=0), rtol=0.08, err_msg=obj.name)
+        error = np.abs(ours.mean(axis=0) - theirs.mean(axis=0)).sum()
+        assert np.abs(without_lights.mean(axis=0) - theirs.mean(axis=0)).sum() > 2.0 * error, obj.name
     floor = objs[0]
     x = np.array([floor.matrix_world @ v.co for v in floor.data.vertices])[:, 0]
     for values in (bounced[floor.name] - direct[floor.name], c_total[floor.name] - c_direct[floor.name]):
