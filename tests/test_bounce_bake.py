@@ -342,6 +342,16 @@ def test_textured_and_over_bright_albedo(bpy_module, empty_scene):
     bsdf.inputs["Color"].default_value = (1.5, 0.2, 0.2, 1.0)
     report = api.bake(objs, order=2, samples=64, bounces=1)
     assert any("clamped" in note for note in report.albedo_notes)
+    from prt_addon.blender.bake import reports
+
+    said = []
+
+    class Operator:
+        def report(self, kind, message):
+            said.append((set(kind), message))
+
+    reports._report_to_operator(Operator(), report)
+    assert any(kind == {"WARNING"} and "clamped" in message for kind, message in said)
     bright = storage.read_bounce(objs[0].data).copy()
     bsdf.inputs["Color"].default_value = (1.0, 0.2, 0.2, 1.0)
     api.bake(objs, order=2, samples=64, bounces=1)

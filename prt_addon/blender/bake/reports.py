@@ -44,5 +44,7 @@ def _report_to_operator(op, report):
         op.report({"INFO"}, "PRT: " + report.headline())
     if report.note:
         op.report({"WARNING"}, f"PRT: {report.note}")
+    for note in report.albedo_notes:  # bounced light: how materials were read, clamped albedos
+        op.report({"WARNING"} if "clamped" in note else {"INFO"}, f"PRT: {note}")
     for name, reason in report.skipped:
         op.report({"WARNING"}, f"PRT: skipped '{name}': {reason}")
