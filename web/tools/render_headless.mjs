@@ -2,12 +2,14 @@
 //
 //   node web/tools/render_headless.mjs JOB.json
 //
-// JOB.json: {"html": viewer page, "glb": file, "chromium": executable, "width": W, "height": H,
+// JOB.json: {"html": viewer page, "glb": file (omit it for a page with the .glb embedded),
+//   "chromium": executable, "width": W, "height": H,
 //   "turns": [[9 numbers, row-major 3x3 lighting rotation, glTF frame], ...],
 //   "out": prefix, "screenshots": true}
 // Writes PREFIX_<i>.f32 (W x H x 4 float32, linear radiance, top row first) per turn, and
 // PREFIX_<i>.png screenshots of the page as a user sees it; prints a JSON summary (WebGL renderer,
-// the viewer's info, timings). puppeteer-core comes from build/node (scripts/setup_node.sh).
+// the viewer's info or its error message, every request that was not file:, data: or blob:, timings).
+// puppeteer-core comes from build/node (scripts/setup_node.sh).
 import fs from 'node:fs';
 import path from 'node:path';
 import { createRequire } from 'node:module';
@@ -41,11 +43,14 @@ const browser = await puppeteer.launch({
   headless: true,
   protocolTimeout: 600000,
 });
-const summary = { images: [], screenshots: [], console: [] };
+const summary = { images: [], screenshots: [], console: [], requests: [] };
 try {
   const page = await browser.newPage();
   page.on('console', (msg) => summary.console.push(`${msg.type()}: ${msg.text()}`));
   page.on('pageerror', (error) => summary.console.push(`pageerror: ${error.message}`));
+  page.on('request', (request) => {
+    if (!/^(file|data|blob):/.test(request.url())) summary.requests.push(request.url());
+  });
   await page.setViewport({ width: job.width, height: job.height });
   await page.goto(pathToFileURL(job.html).href, { waitUntil: 'load' });
   summary.renderer = await page.evaluate(() => {
@@ -55,11 +60,17 @@ try {
     return ext ? gl.getParameter(ext.UNMASKED_RENDERER_WEBGL) : gl.getParameter(gl.RENDERER);
   });
   if (!summary.renderer) throw new Error('no WebGL2 in this Chromium');
-  await page.evaluate(() => window.prtViewer.ready);
-  const data = fs.readFileSync(job.glb).toString('base64');
-  summary.info = await page.evaluate((text) => window.prtViewer.loadBase64(text, 'scene.glb'), data);
+  const load = job.glb
+    ? (text) => window.prtViewer.loadBase64(text, 'scene.glb')
+    : () => window.prtViewer.ready;
+  const data = job.glb ? fs.readFileSync(job.glb).toString('base64') : null;
+  try {
+    summary.info = await page.evaluate(load, data);
+  } catch (error) {
+    summary.error = await page.evaluate(() => document.getElementById('message').textContent);
+  }
   summary.loaded = (Date.now() - started) / 1000;
-  for (const [i, turn] of job.turns.entries()) {
+  for (const [i, turn] of (summary.error ? [] : job.turns).entries()) {
     const t0 = Date.now();
     const b64 = await page.evaluate(
       (m, w, h) => {
