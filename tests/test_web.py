@@ -220,7 +220,7 @@ def test_viewer_matches_render_view(demo_scene, browser_tools, tmp_path, lights,
     if lights == "no lights":  # the page a user double-clicks: the .glb inside it
         page = str(tmp_path / "embedded.html")
         _tool("build_web.sh", "--out", page, "--glb", glb)
-        job = dict(job, html=page, glb=None)
+        job = dict(job, html=page, glb=None, drag=[150, 0], screenshots=True)
     summary = _run_viewer(browser_tools, dict(job, out=str(tmp_path / "viewer")), tmp_path)
     assert summary["info"]["lights"] == (4 if lights == "split lights" else 0), summary["info"]
     assert summary["info"]["camera"] and summary["info"]["orders"] == [8, 8], summary["info"]
@@ -236,6 +236,9 @@ def test_viewer_matches_render_view(demo_scene, browser_tools, tmp_path, lights,
         assert r["drawn"] > 0.3  # the scene fills the view: a wrong camera would not
         assert r["mean"] < MEAN_TOLERANCE and r["p99"] < P99_TOLERANCE, results
         assert r["coverage"] < COVERAGE_TOLERANCE, results
+    if "drag" in job:  # a mouse drag of 150 pixels to the right turns the lighting 1.5 rad about up
+        c, s = np.cos(1.5), np.sin(1.5)
+        assert np.allclose(summary["dragTurn"], [c, 0, s, 0, 1, 0, -s, 0, c], atol=1e-9), summary["dragTurn"]
     # The two rotations differ far more than the tolerance: the comparison sees the turn.
     a, b = (np.fromfile(image["file"], np.float32).reshape(height, width, 4) for image in summary["images"])
     assert np.abs(a[..., :3] - b[..., :3]).mean() > 20 * MEAN_TOLERANCE * results[0]["level"]

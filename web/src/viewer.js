@@ -3,7 +3,7 @@
 //
 // Left drag turns the lighting (about the world's up axis, and about the view's horizontal axis),
 // right drag orbits the camera, the wheel zooms, a double click resets both. window.prtViewer
-// has load(ArrayBuffer), setTurn(R), renderLinear(w, h) (a float RGBA image: linear radiance,
+// has load(ArrayBuffer), setTurn(R), turn(), renderLinear(w, h) (a float RGBA image: linear radiance,
 // no exposure, no view transform, top row first, as base64) and info(), for tests and scripts.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
@@ -242,8 +242,10 @@ function main() {
     loadBase64: (text, name = 'file') => loadInto(viewer, base64ToBuffer(text), name),
     setTurn: (matrix) => {
       viewer.prt.setTurn(matrix);
+      viewer.showTurn();
       viewer.requestDraw();
     },
+    turn: () => (viewer.prt ? viewer.prt.turn.slice() : null),
     renderLinear: (width, height) => viewer.renderLinear(width, height),
     info: () => (viewer.prt ? viewer.prt.info() : null),
   };

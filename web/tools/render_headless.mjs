@@ -5,7 +5,8 @@
 // JOB.json: {"html": viewer page, "glb": file (omit it for a page with the .glb embedded),
 //   "chromium": executable, "width": W, "height": H,
 //   "turns": [[9 numbers, row-major 3x3 lighting rotation, glTF frame], ...],
-//   "out": prefix, "screenshots": true}
+//   "out": prefix, "screenshots": true, "drag": [dx, dy] (optional: a left-button mouse drag over
+//   the page after the turns, from the identity turn; the viewer's turn after it is in the summary)}
 // Writes PREFIX_<i>.f32 (W x H x 4 float32, linear radiance, top row first) per turn, and
 // PREFIX_<i>.png screenshots of the page as a user sees it; prints a JSON summary (WebGL renderer,
 // the viewer's info or its error message, every request that was not file:, data: or blob:, timings).
@@ -89,6 +90,22 @@ try {
       const shot = `${job.out}_${i}.png`;
       await page.screenshot({ path: shot });
       summary.screenshots.push(shot);
+    }
+  }
+  if (job.drag && !summary.error) {
+    await page.evaluate(() => window.prtViewer.setTurn([1, 0, 0, 0, 1, 0, 0, 0, 1]));
+    const [x, y] = [Math.round(job.width / 2), Math.round(job.height / 2)];
+    await page.mouse.move(x, y);
+    await page.mouse.down();
+    for (let step = 1; step <= 10; step++) {
+      await page.mouse.move(x + (job.drag[0] * step) / 10, y + (job.drag[1] * step) / 10);
+    }
+    await page.mouse.up();
+    summary.dragTurn = await page.evaluate(() => window.prtViewer.turn());
+    if (job.screenshots) {
+      await page.evaluate(() => new Promise((resolve) => requestAnimationFrame(() => requestAnimationFrame(resolve))));
+      summary.screenshots.push(`${job.out}_drag.png`);
+      await page.screenshot({ path: `${job.out}_drag.png` });
     }
   }
 } finally {
