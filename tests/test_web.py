@@ -96,6 +96,44 @@ def test_js_rotation_matches_the_core(tmp_path):
     assert worst < 1e-10, worst
 
 
+def test_build_refuses_bad_input(tmp_path):
+    """build_web.sh says what is wrong with the .glb or the output path, and leaves no page."""
+    for tool in ("node", "npm"):
+        if shutil.which(tool) is None:
+            pytest.skip(f"{tool} is needed to build the web viewer (install Node.js)")
+    _tool("setup_node.sh")
+    no_prt = tmp_path / "plain.glb"
+    header = json.dumps({"asset": {"version": "2.0"}, "scenes": [{"nodes": []}]}).encode()
+    header += b" " * (-len(header) % 4)
+    no_prt.write_bytes(
+        b"glTF"
+        + (2).to_bytes(4, "little")
+        + (20 + len(header)).to_bytes(4, "little")
+        + len(header).to_bytes(4, "little")
+        + b"JSON"
+        + header
+    )
+    (tmp_path / "text.glb").write_text("not a glb")
+    (tmp_path / "file").write_text("")
+    cases = [
+        (["--glb", str(tmp_path / "missing.glb")], "no such file"),
+        (["--glb", str(tmp_path / "text.glb")], "is not a binary glTF"),
+        (["--glb", str(no_prt)], "has no PRT lighting"),
+        (["--out", str(tmp_path / "file" / "page.html")], "a part of its folder is a file"),
+    ]
+    for args, message in cases:
+        run = subprocess.run(
+            ["bash", os.path.join(ROOT, "scripts", "build_web.sh"), *args]
+            + ([] if "--out" in args else ["--out", str(tmp_path / "page.html")]),
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert run.returncode == 2 and message in run.stderr, (args, run.stderr)
+        assert "at " not in run.stderr  # a message, not a stack trace
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file", "plain.glb", "text.glb"]
+
+
 # --- the viewer in headless Chromium ------------------------------------------------------------
 
 

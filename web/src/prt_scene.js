@@ -3,7 +3,7 @@
 // Reads the format of docs/export.md: scene extras PRT_lighting (world SH in glTF's frame, split
 // lights), mesh extras PRT_lighting (order, the _PRT_Tk attribute names). setTurn(R) turns the
 // lighting by the 3x3 rotation R (glTF world frame): the SH by rotationMatrix(R_node^-1 R), the
-// lights' directions by R, then the shadow maps are drawn again.
+// lights' directions by R; the shadow maps are drawn again before the next frame (prepare).
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
 import { lightInLocalFrame, multiply3 } from './sh_rotation.js';
@@ -88,7 +88,13 @@ export class PRTScene {
       const local = lightInLocalFrame(this.lighting.coefficients, linearPart(object.matrixWorld), order, this.turn);
       setLight(material, local, count);
     }
-    if (this.shadows) this.updateLights();
+    this.shadowsDirty = Boolean(this.shadows); // drawn again before the next frame (prepare)
+  }
+
+  /** Before drawing: the shadow maps of the current turn (once per turn, however many moves). */
+  prepare() {
+    if (this.shadowsDirty) this.updateLights();
+    this.shadowsDirty = false;
   }
 
   /** Turn by `delta` after the current turn. */

@@ -79,6 +79,7 @@ class Viewer {
       this.camera.near = source.near;
       this.camera.far = source.far;
       this.fileAspect = source.aspect;
+      this.fileFov = source.fov;
     } else {
       const radius = box.getSize(new THREE.Vector3()).length() * 0.5 || 1;
       this.camera.position.copy(centre).add(new THREE.Vector3(0.6, 0.5, 1).multiplyScalar(radius * 2.2));
@@ -153,8 +154,10 @@ class Viewer {
       return;
     }
     this.camera.aspect = width / height;
+    if (this.fileAspect) this.camera.fov = blenderFov(this.fileFov, this.fileAspect, this.camera.aspect);
     this.camera.updateProjectionMatrix();
     this.prt.shared.display.value = true;
+    this.prt.prepare();
     this.renderer.render(this.prt.scene, this.camera);
   }
 
@@ -164,6 +167,7 @@ class Viewer {
     if (!prt) throw new Error('nothing loaded');
     const camera = prt.camera ? prt.camera.clone() : this.camera.clone();
     camera.aspect = width / height;
+    if (prt.camera) camera.fov = blenderFov(prt.camera.fov, prt.camera.aspect, camera.aspect);
     camera.updateProjectionMatrix();
     const target = new THREE.WebGLRenderTarget(width, height, {
       type: THREE.FloatType,
@@ -176,6 +180,7 @@ class Viewer {
     const pixels = new Float32Array(width * height * 4);
     try {
       prt.shared.display.value = false;
+      prt.prepare();
       this.renderer.setRenderTarget(target);
       this.renderer.setClearColor(0x000000, 0);
       this.renderer.clear();
@@ -193,6 +198,18 @@ class Viewer {
     this.requestDraw();
     return bufferToBase64(flipped.buffer);
   }
+}
+
+/**
+ * Vertical field of view (degrees) for a window of aspect `aspect`, from the file's camera (fov,
+ * fileAspect), as Blender's sensor fit AUTO frames it: the larger side of the picture spans the
+ * camera's larger field of view.
+ */
+function blenderFov(fov, fileAspect, aspect) {
+  const t = Math.tan((fov * Math.PI) / 360);
+  const wide = fileAspect >= 1 ? t * fileAspect : t; // tan of half the larger field of view
+  const vertical = aspect >= 1 ? wide / aspect : wide;
+  return (Math.atan(vertical) * 360) / Math.PI;
 }
 
 function multiply(a, b) {
