@@ -240,20 +240,37 @@ def _compare(reference, file, width, height):
 def test_viewer_matches_render_view(demo_scene, browser_tools, tmp_path, lights, capsys):
     """The viewer's linear image of the exported demo scene from the exported camera is
     api.render_view's at two lighting rotations; with the split lights (shadow maps on both
-    sides) from the page loading the file, without them from a page with the .glb embedded."""
+    sides) from the page loading the file; without them from a page with the .glb embedded, with
+    a material's colour and a mirrored node."""
     from prt_addon import api
     from prt_addon.blender.display import lighting
 
+    import bpy
+
     scene = demo_scene
     width, height = 480, 360
+    suzanne, ground = scene.objects["Suzanne"], scene.objects["Ground"]
     if lights == "no lights":
         lighting.set_lights_override(scene, [])
+        # Also a material's base colour (the ground keeps none: Blender's default 0.8) and a
+        # mirrored, turned node: both renderers draw the same data, so the bake need not match.
+        material = bpy.data.materials.new("PRT test clay")
+        material.diffuse_color = (0.9, 0.35, 0.2, 1.0)
+        for node in material.node_tree.nodes if material.node_tree else []:
+            if node.bl_idname == "ShaderNodeBsdfPrincipled":
+                node.inputs["Base Color"].default_value = (0.9, 0.35, 0.2, 1.0)
+        suzanne.data.materials.append(material)
+        ground.scale, ground.rotation_euler = (-1.0, 1.0, 1.0), (0.0, 0.0, 0.4)
     try:
         assert bool(lighting.world_lights(scene)) == (lights == "split lights")
         glb = api.export_gltf(str(tmp_path / "demo.glb"))
         turns, references = _turns_and_references(scene, [0.0, 2.1], width, height)
     finally:
         lighting.set_lights_override(scene, None)
+        if lights == "no lights":
+            suzanne.data.materials.clear()
+            bpy.data.materials.remove(material)
+            ground.scale, ground.rotation_euler = (1.0, 1.0, 1.0), (0.0, 0.0, 0.0)
     job = {"html": browser_tools["html"], "glb": glb, "width": width, "height": height, "turns": turns}
     if lights == "no lights":  # the page a user double-clicks: the .glb inside it
         page = str(tmp_path / "embedded.html")

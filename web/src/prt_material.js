@@ -13,11 +13,17 @@ import { MAX_SUNS, PCF_TAPS, BLOCKER_TAPS, MAX_RADIUS, MAX_SLOPE } from './shado
 const MAX_TEXTURE_WIDTH = 4096;
 
 /** RGBA32F DataTexture of the transfer: `count` texels per vertex, perRow vertices per row. */
-export function transferTexture(geometry, names) {
+export function transferTexture(geometry, names, maxSize = MAX_TEXTURE_WIDTH) {
   const count = names.length;
   const vertices = geometry.attributes.position.count;
-  const perRow = Math.max(1, Math.floor(MAX_TEXTURE_WIDTH / count));
+  const perRow = Math.max(1, Math.floor(Math.min(MAX_TEXTURE_WIDTH, maxSize) / count));
   const rows = Math.ceil(vertices / perRow);
+  if (rows > maxSize) {
+    throw new Error(
+      `a mesh of ${vertices} vertices at ${count * 4} coefficients needs a ${perRow * count}x${rows} ` +
+        `texture; this browser allows ${maxSize}x${maxSize} (split the mesh or bake a lower order)`,
+    );
+  }
   const width = perRow * count;
   const data = new Float32Array(width * rows * 4);
   names.forEach((name, k) => {

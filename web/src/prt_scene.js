@@ -65,7 +65,8 @@ export class PRTScene {
           : [object.material.color.r, object.material.color.g, object.material.color.b];
       // (A mesh used by several nodes shares one geometry: one texture.)
       if (!textures.has(object.geometry)) {
-        textures.set(object.geometry, transferTexture(object.geometry, meta.attributes));
+        const maxSize = renderer.capabilities.maxTextureSize;
+        textures.set(object.geometry, transferTexture(object.geometry, meta.attributes, maxSize));
         for (const name of meta.attributes) object.geometry.deleteAttribute(name.toLowerCase());
       }
       const { texture, perRow } = textures.get(object.geometry);
