@@ -1,5 +1,4 @@
-"""The web viewer: its JS SH rotation against the core, and its image in headless Chromium against
-api.render_view of the same view (docs/export.md, "The web viewer")."""
+"""The web viewer (docs/export.md): its JS SH rotation against the core, its build, its image against api.render_view."""
 
 import importlib.util
 import json
