@@ -10,6 +10,8 @@
    (prt.project_world, prt.bake_transfer), prints the bake report, renders the PRT view offscreen
    at lighting rotations of 0, 120 and 240 degrees about Z, and writes the PNGs and the .blend;
    compares the PRT shading with Cycles' per-vertex bake of the same scene.
+3. Exports the scene to out/prt_demo.glb, and builds the web viewer with that file inside it,
+   out/prt_viewer.html (scripts/build_web.sh; needs Node.js and npm).
 It prints what a user came for first (what was baked, how long, how far from Cycles, where the
 pictures are), then the projection detail.
 """
@@ -17,6 +19,7 @@ pictures are), then the projection detail.
 import argparse
 import json
 import os
+import subprocess
 import sys
 import time
 import warnings
@@ -175,7 +178,28 @@ def print_summary(args, summary):
     print(f"  Pictures ({len(paths)} lighting rotations, {seconds:.2f} s): " + ", ".join(shown(p) for p in paths))
     print(f"  Blender file: {shown(summary['blend'])} (open it and rotate the HDRI in the PRT tab)")
     print(f"  For other engines: {shown(summary['glb'])} (glTF with the transfer and the lighting, docs/export.md)")
+    viewer, problem = summary["viewer"]
+    if viewer:
+        print(f"  Web viewer: {shown(viewer)} (open it in a browser, drag to turn the lighting)")
+    else:
+        print(f"  Web viewer not built: {problem}")
     print(f"  World projected in {summary['project'][1] * 1e3:.0f} ms ({summary['project'][0].lower()})")
+
+
+def build_viewer(glb, page):
+    """(page, None) after building the web viewer with the .glb embedded, or (None, why not)."""
+    try:
+        run = subprocess.run(
+            ["bash", os.path.join(ROOT, "scripts", "build_web.sh"), "--out", page, "--glb", glb],
+            capture_output=True,
+            text=True,
+            timeout=900,
+        )
+    except (OSError, subprocess.TimeoutExpired) as error:
+        return None, str(error)
+    if run.returncode != 0:
+        return None, (run.stderr.strip().splitlines() or ["scripts/build_web.sh failed"])[-1]
+    return page, None
 
 
 def run_scene(args, summary):
@@ -215,6 +239,7 @@ def run_scene(args, summary):
         bpy.ops.wm.save_as_mainfile(filepath=blend)
         summary["blend"] = blend
         summary["glb"] = api.export_gltf(os.path.join(args.output, "prt_demo.glb"), scene=scene)
+        summary["viewer"] = build_viewer(summary["glb"], os.path.join(args.output, "prt_viewer.html"))
     finally:
         # bpy 4.x as a module frees classes still registered at exit after Python has shut down
         # and segfaults: unregister while Python runs (full Blender does this itself).

@@ -1,7 +1,9 @@
 """The README's main job runs end to end and writes what it says it writes."""
 
+import base64
 import os
 import re
+import shutil
 import subprocess
 import sys
 
@@ -45,6 +47,13 @@ def test_demo_projects_bakes_renders_and_saves(tmp_path):
     assert 1.0 < away < 15.0, out  # order 4 band limit (6 %) plus Cycles' noise at 64 samples
     assert out.index("Pictures") < out.index("Detail")
     assert "For other engines:" in out and "prt_demo.glb" in out, out
+    if shutil.which("node") and shutil.which("npm"):
+        assert "Web viewer: " in out and "prt_viewer.html" in out, out
+        page = (tmp_path / "prt_viewer.html").read_text()
+        # The page holds the demo's .glb (base64) and three.js, and loads nothing from elsewhere.
+        embedded = page.split('id="prt-embedded"', 1)[1].split(">", 1)[1].split("</script>", 1)[0]
+        assert base64.b64decode("".join(embedded.split())) == (tmp_path / "prt_demo.glb").read_bytes()
+        assert "<script src" not in page and "import(" not in page
     for name in (
         "prt_rotation_000.png",
         "prt_rotation_120.png",

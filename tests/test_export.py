@@ -415,3 +415,29 @@ def test_shared_mesh_and_parent(baked, bpy_module, tmp_path):
     nodes = {n["name"]: n for n in document["nodes"]}
     assert nodes["twin"]["mesh"] == nodes[objs["cube"].name]["mesh"]
     assert document["meshes"][nodes["twin"]["mesh"]]["extras"]["PRT_lighting"]["order"] == 4
+
+
+def test_scene_camera_and_view_exported(baked, bpy_module, tmp_path):
+    """Exporting the scene's baked objects also writes its camera (a viewer opens at that view)
+    and the view exposure; an explicit object list writes only what it lists."""
+    from prt_addon import api
+
+    bpy = bpy_module
+    scene, objs = baked
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    scene.collection.objects.link(camera)
+    camera.location = (4.0, -5.0, 3.0)
+    camera.rotation_euler = (1.1, 0.0, 0.7)
+    scene.camera = camera
+    scene.render.resolution_x, scene.render.resolution_y = 480, 360
+    scene.view_settings.exposure = -1.5
+    document, _accessor = _read_glb(api.export_gltf(str(tmp_path / "cam.glb")))
+    assert len(document["cameras"]) == 1
+    perspective = document["cameras"][0]["perspective"]
+    assert abs(perspective["aspectRatio"] - 480 / 360) < 1e-6
+    # Sensor fit AUTO, landscape: the 36 mm sensor spans the width.
+    assert abs(perspective["yfov"] - 2 * np.arctan(18.0 / camera.data.lens * 360 / 480)) < 1e-5
+    view = document["scenes"][0]["extras"]["PRT_lighting"]["view"]
+    assert view == {"exposure": -1.5, "view_transform": scene.view_settings.view_transform}
+    document, _accessor = _read_glb(api.export_gltf(str(tmp_path / "only.glb"), [objs["sphere"]]))
+    assert "cameras" not in document

@@ -69,9 +69,14 @@ def _check_path(path):
 
 
 def _plan(objects, scene):
-    """[(object, BakeRecord or None)] of the objects to export; raises ExportError."""
+    """[(object, BakeRecord or None)] of the objects to export; raises ExportError.
+    objects=None: the scene's baked meshes and its camera (a viewer opens at the camera's view)."""
     if objects is None:
         objects = [o for o in scene.objects if o.type == "MESH" and o.data.get(storage.RECORD) is not None]
+        camera = scene.camera
+        if objects and camera is not None and camera.type == "CAMERA":
+            if camera.name in bpy.context.view_layer.objects:
+                objects.append(camera)
     elif isinstance(objects, bpy.types.Object):
         objects = [objects]
     objects = list(objects)
@@ -122,6 +127,10 @@ def world_extras(scene):
         if scene.world is not None
         else [0.0, 0.0, 0.0],
         "blender_sh_rotation": _world.current_rotation(scene).tolist(),
+        "view": {
+            "exposure": float(scene.view_settings.exposure),
+            "view_transform": str(scene.view_settings.view_transform),
+        },
     }
 
 
@@ -232,6 +241,7 @@ def _run_exporter(path, meshes):
             export_format="GLB",
             use_selection=True,
             export_attributes=True,
+            export_cameras=True,
             export_extras=True,
             export_yup=True,
             export_apply=False,

@@ -1,0 +1,191 @@
+// The PRT material: per-vertex max(0, sum_i L_i t_i) x albedo, plus the split lights per pixel.
+//
+// The same shading as Blender's display (prt_addon/blender/display/shader.py, shader_suns.py):
+// the transfer comes from an RGBA32F texture read with texelFetch at gl_VertexID (so any order
+// fits, whatever the vertex-attribute limit), the light is a uniform array of 3 * count vec4s
+// (light[ch * count + k] = L_{4k..4k+3} of channel ch, in the node's local frame). Each split
+// light adds albedo * P/pi * max(0, n.s) * V per pixel, V from its shadow map (shadows.js: PCSS
+// over Vogel-disc taps, the same filter as Blender's). Output is linear radiance, or with
+// `display` set, radiance * 2^exposure through the sRGB curve (Blender's "Standard" view).
+import * as THREE from 'three';
+import { MAX_SUNS, PCF_TAPS, BLOCKER_TAPS, MAX_RADIUS, MAX_SLOPE } from './shadows.js';
+
+const MAX_TEXTURE_WIDTH = 4096;
+
+/** RGBA32F DataTexture of the transfer: `count` texels per vertex, perRow vertices per row. */
+export function transferTexture(geometry, names, maxSize = MAX_TEXTURE_WIDTH) {
+  const count = names.length;
+  const vertices = geometry.attributes.position.count;
+  const perRow = Math.max(1, Math.floor(Math.min(MAX_TEXTURE_WIDTH, maxSize) / count));
+  const rows = Math.ceil(vertices / perRow);
+  if (rows > maxSize) {
+    throw new Error(
+      `a mesh of ${vertices} vertices at ${count * 4} coefficients needs a ${perRow * count}x${rows} ` +
+        `texture; this browser allows ${maxSize}x${maxSize} (split the mesh or bake a lower order)`,
+    );
+  }
+  const width = perRow * count;
+  const data = new Float32Array(width * rows * 4);
+  names.forEach((name, k) => {
+    const attr = geometry.attributes[name.toLowerCase()] || geometry.attributes[name];
+    if (!attr || attr.itemSize !== 4) throw new Error(`the mesh has no VEC4 attribute ${name}`);
+    for (let v = 0; v < vertices; v++) {
+      const texel = (Math.floor(v / perRow) * width + (v % perRow) * count + k) * 4;
+      data[texel] = attr.getX(v);
+      data[texel + 1] = attr.getY(v);
+      data[texel + 2] = attr.getZ(v);
+      data[texel + 3] = attr.getW(v);
+    }
+  });
+  const texture = new THREE.DataTexture(data, width, rows, THREE.RGBAFormat, THREE.FloatType);
+  texture.minFilter = texture.magFilter = THREE.NearestFilter;
+  texture.generateMipmaps = false;
+  texture.needsUpdate = true;
+  return { texture, perRow };
+}
+
+const VERTEX = (count, suns) => `
+uniform sampler2D transferTx;
+uniform int perRow;
+uniform vec4 light[${3 * count}];
+uniform vec3 albedo;
+uniform float scale;
+varying vec3 radiance;
+${suns ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
+void main() {
+  vec3 r = vec3(0.0);
+  int col = (gl_VertexID % perRow) * ${count};
+  int row = gl_VertexID / perRow;
+  for (int k = 0; k < ${count}; k++) {
+    vec4 t = texelFetch(transferTx, ivec2(col + k, row), 0);
+    r += vec3(dot(t, light[k]), dot(t, light[${count} + k]), dot(t, light[${2 * count} + k]));
+  }
+  radiance = max(r, vec3(0.0)) * albedo * scale;
+  vec4 wp = modelMatrix * vec4(position, 1.0);
+${suns ? '  surfaceAlbedo = albedo * scale;\n  worldPos = wp.xyz;\n  localNrm = normal;' : ''}
+  gl_Position = projectionMatrix * viewMatrix * wp;
+}
+`;
+
+// Blender's sun_visibility (shader_suns.py) on a map that stores depth > 0, and 0 where empty.
+const SUN_FUNCTIONS = `
+uniform vec4 sunRows[${3 * MAX_SUNS}];
+uniform vec4 sunDir[${MAX_SUNS}];
+uniform vec4 sunPower[${MAX_SUNS}];
+uniform vec4 sunParams[${MAX_SUNS}];
+uniform mat3 nrmMatrix;
+uniform bool useShadows;
+
+float sunDepth(sampler2D map, vec2 xy, float res) {
+  ivec2 t = ivec2(floor(xy));
+  if (t.x < 0 || t.y < 0 || t.x >= int(res) || t.y >= int(res)) return 1.0e30;
+  float d = texelFetch(map, t, 0).r;
+  return d > 0.0 ? d : 1.0e30;
+}
+
+vec2 vogel(int i, int n) {
+  float r = sqrt((float(i) + 0.5) / float(n));
+  float a = float(i) * 2.3999632;
+  return r * vec2(cos(a), sin(a));
+}
+
+float sunVisibility(sampler2D map, int l, float c) {
+  if (!useShadows) return 1.0;
+  vec4 p = vec4(worldPos, 1.0);
+  vec3 q = vec3(dot(sunRows[3 * l], p), dot(sunRows[3 * l + 1], p), dot(sunRows[3 * l + 2], p));
+  float texel = sunParams[l].x;
+  float tanA = sunParams[l].y;
+  float res = sunParams[l].z;
+  float slope = min(sqrt(max(1.0 - c * c, 0.0)) / c, ${MAX_SLOPE.toFixed(1)});
+  float search = clamp(q.z * tanA / texel, 1.0, ${MAX_RADIUS.toFixed(1)});
+  float limit = q.z - texel * (1.0 + (search + 1.0) * slope);
+  float sum = 0.0;
+  float found = 0.0;
+  for (int i = 0; i < ${BLOCKER_TAPS}; i++) {
+    float d = sunDepth(map, q.xy + search * vogel(i, ${BLOCKER_TAPS}), res);
+    if (d < limit) {
+      sum += d;
+      found += 1.0;
+    }
+  }
+  if (found == 0.0) return 1.0;
+  float radius = clamp((q.z - sum / found) * tanA / texel, 0.5, ${MAX_RADIUS.toFixed(1)});
+  limit = q.z - texel * (1.0 + (radius + 1.0) * slope);
+  float lit = 0.0;
+  for (int i = 0; i < ${PCF_TAPS}; i++) {
+    lit += step(limit, sunDepth(map, q.xy + radius * vogel(i, ${PCF_TAPS}), res));
+  }
+  return lit / ${PCF_TAPS.toFixed(1)};
+}
+`;
+
+const FRAGMENT = (suns) => `
+uniform bool display;
+uniform float exposureScale;
+varying vec3 radiance;
+${suns ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
+${Array.from({ length: suns }, (_, l) => `uniform sampler2D shadow${l};`).join('\n')}
+${suns ? SUN_FUNCTIONS : ''}
+vec3 srgb(vec3 c) {
+  c = clamp(c, 0.0, 1.0);
+  return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
+}
+void main() {
+  vec3 color = radiance;
+${
+  suns
+    ? `  vec3 n = normalize(nrmMatrix * localNrm);
+  vec3 sun = vec3(0.0);
+  float c;
+${Array.from(
+  { length: suns },
+  (_, l) => `  c = dot(n, sunDir[${l}].xyz);
+  if (c > 0.0) sun += sunPower[${l}].rgb * (c * sunVisibility(shadow${l}, ${l}, c));`,
+).join('\n')}
+  color += surfaceAlbedo * sun;`
+    : ''
+}
+  gl_FragColor = display ? vec4(srgb(color * exposureScale), 1.0) : vec4(color, 1.0);
+}
+`;
+
+/** A ShaderMaterial for `count` transfer vec4s and `suns` lights (shared uniforms passed in). */
+export function prtMaterial({ count, suns, texture, perRow, albedo, shared }) {
+  const uniforms = {
+    transferTx: { value: texture },
+    perRow: { value: perRow },
+    light: { value: Array.from({ length: 3 * count }, () => new THREE.Vector4()) },
+    albedo: { value: new THREE.Vector3(...albedo) },
+    scale: { value: 1.0 },
+    nrmMatrix: { value: new THREE.Matrix3() },
+    display: shared.display,
+    exposureScale: shared.exposureScale,
+  };
+  if (suns) {
+    Object.assign(uniforms, {
+      sunRows: shared.sunRows,
+      sunDir: shared.sunDir,
+      sunPower: shared.sunPower,
+      sunParams: shared.sunParams,
+      useShadows: shared.useShadows,
+    });
+    for (let l = 0; l < suns; l++) uniforms[`shadow${l}`] = shared.shadowMaps[l];
+  }
+  return new THREE.ShaderMaterial({
+    uniforms,
+    vertexShader: VERTEX(count, suns),
+    fragmentShader: FRAGMENT(suns),
+    side: THREE.DoubleSide,
+  });
+}
+
+/** Write a local-frame RGB light ((order^2) rows of [r, g, b]) into the material's uniform. */
+export function setLight(material, local, count) {
+  const light = material.uniforms.light.value;
+  for (let ch = 0; ch < 3; ch++) {
+    for (let k = 0; k < count; k++) {
+      const v = [0, 1, 2, 3].map((j) => (local[4 * k + j] ? local[4 * k + j][ch] : 0));
+      light[ch * count + k].set(v[0], v[1], v[2], v[3]);
+    }
+  }
+}

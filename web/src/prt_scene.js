@@ -1,0 +1,139 @@
+// A loaded PRT .glb made drawable: each baked primitive gets the PRT material, the lighting turns.
+//
+// Reads the format of docs/export.md: scene extras PRT_lighting (world SH in glTF's frame, split
+// lights), mesh extras PRT_lighting (order, the _PRT_Tk attribute names). setTurn(R) turns the
+// lighting by the 3x3 rotation R (glTF world frame): the SH by rotationMatrix(R_node^-1 R), the
+// lights' directions by R; the shadow maps are drawn again before the next frame (prepare).
+import * as THREE from 'three';
+import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
+import { lightInLocalFrame, multiply3 } from './sh_rotation.js';
+import { prtMaterial, setLight, transferTexture } from './prt_material.js';
+import { MAX_SUNS, ShadowMaps } from './shadows.js';
+
+// Blender's display draws a primitive without a material with its default grey (albedo.py).
+export const DEFAULT_ALBEDO = [0.8, 0.8, 0.8];
+const IDENTITY = [1, 0, 0, 0, 1, 0, 0, 0, 1];
+
+export async function parseGLB(buffer) {
+  const loader = new GLTFLoader();
+  return loader.parseAsync(buffer, '');
+}
+
+function linearPart(matrix) {
+  const e = matrix.elements; // column-major
+  return [e[0], e[4], e[8], e[1], e[5], e[9], e[2], e[6], e[10]];
+}
+
+export class PRTScene {
+  constructor(gltf, renderer) {
+    this.gltf = gltf;
+    // GLTFLoader's scene is a Group: a Scene around it (overrideMaterial, for the shadow pass).
+    this.scene = new THREE.Scene();
+    this.scene.add(gltf.scene);
+    this.renderer = renderer;
+    const lighting = gltf.scene.userData.PRT_lighting;
+    if (!lighting || !Array.isArray(lighting.coefficients)) {
+      throw new Error('this .glb has no PRT lighting (export it with PRT Lighting: File > Export > PRT Lighting)');
+    }
+    this.lighting = lighting;
+    this.lights = (lighting.lights || []).slice(0, MAX_SUNS);
+    this.turn = IDENTITY.slice();
+    this.shared = {
+      display: { value: true },
+      exposureScale: { value: 1.0 },
+      useShadows: { value: true },
+      sunRows: { value: Array.from({ length: 3 * MAX_SUNS }, () => new THREE.Vector4()) },
+      sunDir: { value: Array.from({ length: MAX_SUNS }, () => new THREE.Vector4()) },
+      sunPower: { value: Array.from({ length: MAX_SUNS }, () => new THREE.Vector4()) },
+      sunParams: { value: Array.from({ length: MAX_SUNS }, () => new THREE.Vector4()) },
+      shadowMaps: Array.from({ length: MAX_SUNS }, () => ({ value: null })),
+    };
+    this.baked = [];
+    this.scene.updateMatrixWorld(true);
+    const json = gltf.parser.json;
+    const textures = new Map();
+    this.scene.traverse((object) => {
+      if (!object.isMesh) return;
+      object.frustumCulled = false;
+      const meta = object.userData.PRT_lighting;
+      if (!meta || !Array.isArray(meta.attributes)) return;
+      const index = gltf.parser.associations.get(object);
+      const primitive = index ? json.meshes[index.meshes].primitives[index.primitives] : {};
+      const albedo =
+        primitive.material === undefined || !object.material.color
+          ? DEFAULT_ALBEDO
+          : [object.material.color.r, object.material.color.g, object.material.color.b];
+      // (A mesh used by several nodes shares one geometry: one texture.)
+      if (!textures.has(object.geometry)) {
+        const maxSize = renderer.capabilities.maxTextureSize;
+        textures.set(object.geometry, transferTexture(object.geometry, meta.attributes, maxSize));
+        for (const name of meta.attributes) object.geometry.deleteAttribute(name.toLowerCase());
+      }
+      const { texture, perRow } = textures.get(object.geometry);
+      const count = meta.attributes.length;
+      const material = prtMaterial({ count, suns: this.lights.length, texture, perRow, albedo, shared: this.shared });
+      material.uniforms.nrmMatrix.value.getNormalMatrix(object.matrixWorld);
+      object.material = material;
+      this.baked.push({ object, material, count, order: meta.order });
+    });
+    if (!this.baked.length) throw new Error('this .glb holds no baked mesh (no _PRT_T attributes)');
+    this.shadows = this.lights.length ? new ShadowMaps(renderer, this.scene) : null;
+    this.camera = gltf.cameras && gltf.cameras.length ? gltf.cameras[0] : null;
+    this.setTurn(IDENTITY);
+  }
+
+  /** Turn the lighting by R (row-major 3x3, glTF world frame) from the file's own. */
+  setTurn(turn) {
+    this.turn = Array.from(turn);
+    for (const { object, material, count, order } of this.baked) {
+      const local = lightInLocalFrame(this.lighting.coefficients, linearPart(object.matrixWorld), order, this.turn);
+      setLight(material, local, count);
+    }
+    this.shadowsDirty = Boolean(this.shadows); // drawn again before the next frame (prepare)
+  }
+
+  /** Before drawing: the shadow maps of the current turn (once per turn, however many moves). */
+  prepare() {
+    if (this.shadowsDirty) this.updateLights();
+    this.shadowsDirty = false;
+  }
+
+  /** Turn by `delta` after the current turn. */
+  turnBy(delta) {
+    this.setTurn(multiply3(delta, this.turn));
+  }
+
+  lightDirections() {
+    const r = this.turn;
+    return this.lights.map(({ direction: d }) => [
+      r[0] * d[0] + r[1] * d[1] + r[2] * d[2],
+      r[3] * d[0] + r[4] * d[1] + r[5] * d[2],
+      r[6] * d[0] + r[7] * d[1] + r[8] * d[2],
+    ]);
+  }
+
+  updateLights() {
+    const directions = this.lightDirections();
+    const maps = this.shadows.update(directions.map((direction) => ({ direction })));
+    const s = this.shared;
+    directions.forEach((d, l) => {
+      const n = Math.hypot(d[0], d[1], d[2]);
+      const light = this.lights[l];
+      s.sunDir.value[l].set(d[0] / n, d[1] / n, d[2] / n, 0);
+      s.sunPower.value[l].set(...light.power.map((p) => p / Math.PI), 0);
+      s.sunParams.value[l].set(maps[l].texel, Math.tan(Math.min(light.angle, 1.5)), this.shadows.resolution, 0);
+      for (let j = 0; j < 3; j++) s.sunRows.value[3 * l + j].set(...maps[l].rows[j]);
+      s.shadowMaps[l].value = maps[l].texture;
+    });
+  }
+
+  info() {
+    return {
+      objects: this.baked.map((b) => b.object.name),
+      orders: this.baked.map((b) => b.order),
+      lightingOrder: this.lighting.order,
+      lights: this.lights.length,
+      camera: Boolean(this.camera),
+    };
+  }
+}
