@@ -44,21 +44,33 @@ export function transferTexture(geometry, names, maxSize = MAX_TEXTURE_WIDTH) {
   return { texture, perRow };
 }
 
-const VERTEX = (count, suns) => `
+// A bounced bake (Blender's bake.md, "Interreflection") has `channels` more blocks of `count`
+// vec4s after the direct one, lit by bounceLight: the sky plus the split lights' SH.
+const bounceLines = (count, channels) => {
+  if (!channels) return '';
+  const block = [0, 1, 2].map((c) => count * (1 + (channels === 3 ? c : 0)));
+  const fetch = (b) => `texelFetch(transferTx, ivec2(col + ${b} + k, row), 0)`;
+  return `    r += vec3(dot(${fetch(block[0])}, bounceLight[k]), dot(${fetch(block[1])}, bounceLight[${count} + k]),
+              dot(${fetch(block[2])}, bounceLight[${2 * count} + k]));`;
+};
+
+const VERTEX = (count, suns, channels) => `
 uniform sampler2D transferTx;
 uniform int perRow;
 uniform vec4 light[${3 * count}];
+${channels ? `uniform vec4 bounceLight[${3 * count}];` : ''}
 uniform vec3 albedo;
 uniform float scale;
 varying vec3 radiance;
 ${suns ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 void main() {
   vec3 r = vec3(0.0);
-  int col = (gl_VertexID % perRow) * ${count};
+  int col = (gl_VertexID % perRow) * ${count * (1 + channels)};
   int row = gl_VertexID / perRow;
   for (int k = 0; k < ${count}; k++) {
     vec4 t = texelFetch(transferTx, ivec2(col + k, row), 0);
     r += vec3(dot(t, light[k]), dot(t, light[${count} + k]), dot(t, light[${2 * count} + k]));
+${bounceLines(count, channels)}
   }
   radiance = max(r, vec3(0.0)) * albedo * scale;
   vec4 wp = modelMatrix * vec4(position, 1.0);
@@ -149,12 +161,15 @@ ${Array.from(
 }
 `;
 
-/** A ShaderMaterial for `count` transfer vec4s and `suns` lights (shared uniforms passed in). */
-export function prtMaterial({ count, suns, texture, perRow, albedo, shared }) {
+/** A ShaderMaterial for `count` transfer vec4s (per block), `suns` lights and a bounced transfer
+ * of `channels` channels (0: none) (shared uniforms passed in). */
+export function prtMaterial({ count, suns, texture, perRow, albedo, shared, channels = 0 }) {
+  const vec4s = () => ({ value: Array.from({ length: 3 * count }, () => new THREE.Vector4()) });
   const uniforms = {
     transferTx: { value: texture },
     perRow: { value: perRow },
-    light: { value: Array.from({ length: 3 * count }, () => new THREE.Vector4()) },
+    light: vec4s(),
+    ...(channels ? { bounceLight: vec4s() } : {}),
     albedo: { value: new THREE.Vector3(...albedo) },
     scale: { value: 1.0 },
     nrmMatrix: { value: new THREE.Matrix3() },
@@ -173,15 +188,16 @@ export function prtMaterial({ count, suns, texture, perRow, albedo, shared }) {
   }
   return new THREE.ShaderMaterial({
     uniforms,
-    vertexShader: VERTEX(count, suns),
+    vertexShader: VERTEX(count, suns, channels),
     fragmentShader: FRAGMENT(suns),
     side: THREE.DoubleSide,
   });
 }
 
-/** Write a local-frame RGB light ((order^2) rows of [r, g, b]) into the material's uniform. */
-export function setLight(material, local, count) {
-  const light = material.uniforms.light.value;
+/** Write a local-frame RGB light ((order^2) rows of [r, g, b]) into the material's uniform
+ * (`name`: light, or bounceLight for a bounced bake's sky plus lights). */
+export function setLight(material, local, count, name = 'light') {
+  const light = material.uniforms[name].value;
   for (let ch = 0; ch < 3; ch++) {
     for (let k = 0; k < count; k++) {
       const v = [0, 1, 2, 3].map((j) => (local[4 * k + j] ? local[4 * k + j][ch] : 0));

@@ -37,6 +37,9 @@ export class PRTScene {
     }
     this.lighting = lighting;
     this.lights = (lighting.lights || []).slice(0, MAX_SUNS);
+    // What a bounced transfer sees: the sky plus the split lights' SH (the exporter's lights_coefficients).
+    const extra = lighting.lights_coefficients || [];
+    this.bounceCoefficients = lighting.coefficients.map((row, i) => row.map((v, c) => v + (extra[i] ? extra[i][c] : 0)));
     this.turn = IDENTITY.slice();
     this.shared = {
       display: { value: true },
@@ -66,15 +69,18 @@ export class PRTScene {
       // (A mesh used by several nodes shares one geometry: one texture.)
       if (!textures.has(object.geometry)) {
         const maxSize = renderer.capabilities.maxTextureSize;
-        textures.set(object.geometry, transferTexture(object.geometry, meta.attributes, maxSize));
-        for (const name of meta.attributes) object.geometry.deleteAttribute(name.toLowerCase());
+        const names = meta.attributes.concat(meta.bounce_attributes || []);
+        textures.set(object.geometry, transferTexture(object.geometry, names, maxSize));
+        for (const name of names) object.geometry.deleteAttribute(name.toLowerCase());
       }
       const { texture, perRow } = textures.get(object.geometry);
       const count = meta.attributes.length;
-      const material = prtMaterial({ count, suns: this.lights.length, texture, perRow, albedo, shared: this.shared });
+      const channels = meta.bounce_channels || 0;
+      const suns = this.lights.length;
+      const material = prtMaterial({ count, suns, texture, perRow, albedo, shared: this.shared, channels });
       material.uniforms.nrmMatrix.value.getNormalMatrix(object.matrixWorld);
       object.material = material;
-      this.baked.push({ object, material, count, order: meta.order });
+      this.baked.push({ object, material, count, order: meta.order, channels });
     });
     if (!this.baked.length) throw new Error('this .glb holds no baked mesh (no _PRT_T attributes)');
     this.shadows = this.lights.length ? new ShadowMaps(renderer, this.scene) : null;
@@ -85,9 +91,10 @@ export class PRTScene {
   /** Turn the lighting by R (row-major 3x3, glTF world frame) from the file's own. */
   setTurn(turn) {
     this.turn = Array.from(turn);
-    for (const { object, material, count, order } of this.baked) {
-      const local = lightInLocalFrame(this.lighting.coefficients, linearPart(object.matrixWorld), order, this.turn);
-      setLight(material, local, count);
+    for (const { object, material, count, order, channels } of this.baked) {
+      const frame = linearPart(object.matrixWorld);
+      setLight(material, lightInLocalFrame(this.lighting.coefficients, frame, order, this.turn), count);
+      if (channels) setLight(material, lightInLocalFrame(this.bounceCoefficients, frame, order, this.turn), count, 'bounceLight');
     }
     this.shadowsDirty = Boolean(this.shadows); // drawn again before the next frame (prepare)
   }

@@ -14,6 +14,8 @@ import uuid
 import bpy
 import numpy as np
 
+from ...core.light_sh import lights_sh
+
 from ...core import rotation as _rotation
 from .. import storage
 from ..world import nodes as _nodes
@@ -123,6 +125,7 @@ def world_extras(scene):
         "sh_convention": "REAL_ORTHONORMAL_NO_CONDON_SHORTLEY",
         "coefficients": to_gltf_frame(coeffs).tolist(),
         "lights": lights,
+        "lights_coefficients": to_gltf_frame(lights_sh(_lighting.world_lights(scene), n)).tolist(),
         "mapping_rotation_euler_xyz": [float(a) for a in _nodes.mapping_rotation_euler(scene.world)]
         if scene.world is not None
         else [0.0, 0.0, 0.0],
