@@ -105,7 +105,7 @@ def test_zero_albedo_and_zero_bounces_give_the_direct_bake():
 
 def test_back_faces_reflect_nothing():
     _values, _f, direct, A, _comp = bake_sphere(0.8, 0, samples=128, inward=False)
-    assert len(A.rows) == 0  # every hit is on a back face (the triangles face outward)
+    assert A.entries == 0  # every hit is on a back face (the triangles face outward)
 
 
 def test_hits_do_not_depend_on_threads_or_slices():

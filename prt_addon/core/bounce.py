@@ -16,8 +16,9 @@ so the entry is an unbiased estimate of the linear interpolation with one matrix
 The choice is a hash of (point, direction), so a bake does not depend on threads or slicing.
 A hit on a triangle's back face (the ray travels along its normal) reflects nothing.
 
-Memory: one entry per front-face hit, 8 + 4 C bytes (row and node int32, C = 1 or 3 float32
-weights, the hit surface's albedo per colour channel times 4 / N max(0, n . w)).
+Memory: one entry per front-face hit, 8 + 4 C bytes while the shadow pass runs (row and node
+int32, C = 1 or 3 float32 weights, the hit surface's albedo per colour channel times
+4 / N max(0, n . w)), then 4 + 4 C bytes in the matrix (plus its padding).
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ import numpy.typing as npt
 
 # Entry chunks of one matrix-vector product: at most this many float32 gathered values.
 GATHER_VALUES = 1 << 22
+ROWS_PER_SLICE = 512
 
 
 def _hash_unit(rows: np.ndarray, kdir: np.ndarray, seed: int) -> np.ndarray:
@@ -104,65 +106,69 @@ class HitTransport:
 
 
 class Transport:
-    """A sparse matrix (rows: the points of one computation; columns: nodes), from hit entries,
-    sorted by row; apply() is y = A x per colour channel."""
+    """A sparse matrix (rows: the points of one computation; columns: nodes) from hit entries;
+    apply() is y = A x per colour channel.
+
+    Stored as "sliced ELLPACK": the rows are sorted by their number of entries and cut into
+    slices of ROWS_PER_SLICE, each slice a dense (rows, K) block of node indices and weights
+    padded with zero weights to its longest row (a few percent of padding, as neighbouring rows
+    in that order have nearly the same length). A product is then one gather and one einsum per
+    slice, about 2.5 times faster than numpy's segment sums (np.add.reduceat) over the entries.
+    """
 
     def __init__(self, entries: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]], n_rows: int, channels: int):
         parts = [e for e in entries if len(e[0])]
         self.n_rows = int(n_rows)
         self.channels = int(channels)
-        if parts:
-            self.rows = np.concatenate([p[0] for p in parts])
-            self.nodes = np.concatenate([p[1] for p in parts])
-            self.weights = np.concatenate([p[2] for p in parts])
-            if len(self.rows) > 1 and np.any(self.rows[1:] < self.rows[:-1]):  # (slices come in point order)
-                order = np.argsort(self.rows, kind="stable")
-                self.rows, self.nodes, self.weights = self.rows[order], self.nodes[order], self.weights[order]
-        else:
-            self.rows = np.zeros(0, np.int32)
-            self.nodes = np.zeros(0, np.int32)
-            self.weights = np.zeros((0, self.channels), np.float32)
-        new = np.ones(len(self.rows), dtype=bool)
-        new[1:] = self.rows[1:] != self.rows[:-1]
-        self.starts = np.flatnonzero(new)  # first entry of each row that has entries
-        self.row_ids = self.rows[self.starts]
+        self.entries = 0
+        self.slices = []  # (row ids (S,), nodes (S, K) int32, weights (S, K, C) float32)
+        if not parts:
+            return
+        rows = np.concatenate([p[0] for p in parts])
+        nodes = np.concatenate([p[1] for p in parts])
+        weights = np.concatenate([p[2] for p in parts])
+        del parts
+        if len(rows) > 1 and np.any(rows[1:] < rows[:-1]):  # (slices come in point order)
+            order = np.argsort(rows, kind="stable")
+            rows, nodes, weights = rows[order], nodes[order], weights[order]
+        self.entries = len(rows)
+        counts = np.bincount(rows, minlength=self.n_rows)
+        first = np.cumsum(counts) - counts  # each row's first entry
+        by_length = np.argsort(-counts, kind="stable")
+        by_length = by_length[counts[by_length] > 0]
+        for s0 in range(0, len(by_length), ROWS_PER_SLICE):
+            ids = by_length[s0 : s0 + ROWS_PER_SLICE]
+            width = int(counts[ids[0]])
+            column = np.arange(width)
+            valid = column[None, :] < counts[ids][:, None]
+            index = np.where(valid, first[ids][:, None] + column[None, :], 0)
+            w = weights[index]
+            w[~valid] = 0.0
+            self.slices.append((ids.astype(np.intp), nodes[index], w))
 
     @property
     def nbytes(self) -> int:
-        return self.rows.nbytes + self.nodes.nbytes + self.weights.nbytes
+        return sum(r.nbytes + n.nbytes + w.nbytes for r, n, w in self.slices)
 
-    def _chunks(self, values_per_entry: int):
-        """(first, last) row-group ranges of at most ~GATHER_VALUES gathered values each."""
-        per = max(1, GATHER_VALUES // max(1, values_per_entry))
-        groups = len(self.starts)
-        a = 0
-        while a < groups:
-            b = int(np.searchsorted(self.starts, self.starts[a] + per, side="left"))
-            b = max(a + 1, min(groups, b))
-            yield a, b
-            a = b
-
-    def _apply_chunk(self, x, out, a, b):
-        lo = self.starts[a]
-        hi = self.starts[b] if b < len(self.starts) else len(self.rows)
-        gathered = np.take(x, self.nodes[lo:hi], axis=0)  # (m, Cx, nn)
-        if gathered.shape[1] == self.weights.shape[1]:
-            gathered *= self.weights[lo:hi, :, None]
-        else:
-            gathered = gathered * self.weights[lo:hi, :, None]  # (m, C, nn), Cx = 1 broadcast to C
-        out[self.row_ids[a:b]] = np.add.reduceat(gathered, self.starts[a:b] - lo, axis=0)
+    def _apply_slice(self, x, out, ids, nodes, weights):
+        step = max(1, GATHER_VALUES // max(1, nodes.shape[1] * x.shape[1] * x.shape[2]))
+        for a in range(0, len(ids), step):
+            gathered = np.take(x, nodes[a : a + step], axis=0)  # (S, K, Cx, nn)
+            w = weights[a : a + step]
+            if gathered.shape[2] == w.shape[2]:
+                out[ids[a : a + step]] = np.einsum("skc,skci->sci", w, gathered)
+            else:  # Cx = 1: the same x for every channel
+                out[ids[a : a + step]] = np.einsum("skc,ski->sci", w, gathered[:, :, 0])
 
     def apply(self, x: np.ndarray, pool: Executor | None = None) -> np.ndarray:
         """A x for x (nodes, 1 or C, nn) float32: (n_rows, C, nn) float32."""
         x = np.asarray(x, dtype=np.float32)
-        channels = max(self.channels, x.shape[1])
-        out = np.zeros((self.n_rows, channels, x.shape[2]), dtype=np.float32)
-        chunks = list(self._chunks(channels * x.shape[2]))
-        if pool is None or len(chunks) < 2:
-            for a, b in chunks:
-                self._apply_chunk(x, out, a, b)
-        else:  # disjoint row ranges: the threads write disjoint rows
-            for future in [pool.submit(self._apply_chunk, x, out, a, b) for a, b in chunks]:
+        out = np.zeros((self.n_rows, max(self.channels, x.shape[1]), x.shape[2]), dtype=np.float32)
+        if pool is None or len(self.slices) < 2:
+            for piece in self.slices:
+                self._apply_slice(x, out, *piece)
+        else:  # every row is in one slice: the threads write disjoint rows
+            for future in [pool.submit(self._apply_slice, x, out, *piece) for piece in self.slices]:
                 future.result()
         return out
 
