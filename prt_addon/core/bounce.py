@@ -92,7 +92,7 @@ class HitTransport:
         """(rows int32, nodes int32, weights (m, C) float32) of the hits: point `rows[j]` saw
         triangle `prims[j]` along `dirs[j]` at barycentrics (u, v), with max(0, n . w) `cosines[j]`."""
         prims = np.asarray(prims)
-        n = self.normals[prims]
+        n = np.take(self.normals, prims, axis=0)  # (take: 12-byte rows, ~3x faster than n[prims])
         d = np.asarray(dirs, dtype=np.float32)
         front = (n[:, 0] * d[:, 0] + n[:, 1] * d[:, 1] + n[:, 2] * d[:, 2]) < 0.0
         xi = _hash_unit(np.asarray(rows), np.asarray(kdir), self.seed)
@@ -101,7 +101,8 @@ class HitTransport:
         nodes = self.node_triangles.reshape(-1)[prims * 3 + corner]
         keep = front & (nodes >= 0)
         kept = prims[keep]
-        weights = self.albedo[kept] * (np.asarray(cosines, dtype=np.float32)[keep, None] * np.float32(self.scale))
+        cosines = np.asarray(cosines, dtype=np.float32)[keep, None] * np.float32(self.scale)
+        weights = np.take(self.albedo, kept, axis=0) * cosines
         return np.asarray(rows, dtype=np.int32)[keep], nodes[keep], weights.astype(np.float32)
 
 

@@ -27,6 +27,8 @@ Culling (no rays where nothing can occlude), used by prt_addon.core.transfer:
 
 from __future__ import annotations
 
+import threading
+
 
 import numpy as np
 import numpy.typing as npt
@@ -80,6 +82,7 @@ class EmbreeOccluder:
             raise ValueError("an occluder needs at least one triangle")
         self.triangle_count = len(t)
         self._vertices, self._triangles = v, t  # (first_hits' barycentrics)
+        self._table, self._table_lock = None, threading.Lock()
         self._scene = _embree_scene.EmbreeScene(robust=robust)
         self.geometry = "COPIED"
         if shared and embree_buffers.available():
@@ -102,6 +105,16 @@ class EmbreeOccluder:
         # run() returns int32: 0 where occluded, -1 where the ray is free.
         return self._scene.run(o, d, query="OCCLUDED") == 0
 
+    def _corner_table(self):
+        """(T, 9) float32 rows (a, b - a, c - a) of the triangles, built on first use (bounced
+        bakes only): one take() of 36-byte rows per batch instead of three 12-byte gathers."""
+        with self._table_lock:
+            if self._table is None:
+                v, t = self._vertices, self._triangles
+                a = v[t[:, 0]]
+                self._table = np.ascontiguousarray(np.hstack([a, v[t[:, 1]] - a, v[t[:, 2]] - a]))
+        return self._table
+
     def first_hits(self, origins: npt.ArrayLike, directions: npt.ArrayLike) -> tuple[np.ndarray, ...]:
         o = np.asarray(origins, dtype=np.float32)
         d = np.asarray(directions, dtype=np.float32)
@@ -115,10 +128,9 @@ class EmbreeOccluder:
         v = np.zeros(len(o), np.float32)
         hit = np.flatnonzero(prims >= 0)
         if len(hit):
-            tri = self._triangles[prims[hit]]
-            a = self._vertices[tri[:, 0]]
-            e1, e2 = self._vertices[tri[:, 1]] - a, self._vertices[tri[:, 2]] - a
-            dh, th = d[hit], o[hit] - a
+            corners = np.take(self._corner_table(), prims[hit], axis=0)  # (m, 9): a, e1, e2
+            a, e1, e2 = corners[:, 0:3], corners[:, 3:6], corners[:, 6:9]
+            dh, th = np.take(d, hit, axis=0), np.take(o, hit, axis=0) - a
             p, q = _cross(dh, e2), _cross(th, e1)
             det = _dot(e1, p)
             det[det == 0.0] = 1.0

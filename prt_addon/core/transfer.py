@@ -297,7 +297,15 @@ class TransferComputation:
                         cosines, cols = weight.reshape(-1)[hit_flat], k1 - k0
                         kdir, rows = k0 + hit_flat % cols, lo + hit_flat // cols
                         entries.append(
-                            self.hit_sink(rows, kdir, dirs[hit], cosines, prims[hit], bary_u[hit], bary_v[hit])
+                            self.hit_sink(
+                                rows,
+                                kdir,
+                                np.take(dirs, np.flatnonzero(hit), axis=0),
+                                cosines,
+                                prims[hit],
+                                bary_u[hit],
+                                bary_v[hit],
+                            )
                         )
                     weight.reshape(-1)[hit_flat] = 0.0  # (np.put is several times slower)
             # Split the block at the group boundaries of the permuted direction order.
