@@ -294,19 +294,10 @@ class TransferComputation:
                 if n_hit:
                     hit_flat = np.compress(hit, flat, out=self._workspace()["index"][:n_hit])
                     if self.hit_sink is not None:
-                        cosines, cols = weight.reshape(-1)[hit_flat], k1 - k0
-                        kdir, rows = k0 + hit_flat % cols, lo + hit_flat // cols
-                        entries.append(
-                            self.hit_sink(
-                                rows,
-                                kdir,
-                                np.take(dirs, np.flatnonzero(hit), axis=0),
-                                cosines,
-                                prims[hit],
-                                bary_u[hit],
-                                bary_v[hit],
-                            )
-                        )
+                        which, cols = np.flatnonzero(hit), k1 - k0
+                        ray = (np.take(dirs, which, axis=0), weight.reshape(-1)[hit_flat], prims[which])
+                        hits = (*ray, bary_u[which], bary_v[which])
+                        entries.append(self.hit_sink(lo + hit_flat // cols, k0 + hit_flat % cols, *hits))
                     weight.reshape(-1)[hit_flat] = 0.0  # (np.put is several times slower)
             # Split the block at the group boundaries of the permuted direction order.
             for g in range(len(bounds) - 1):
