@@ -119,12 +119,15 @@ def render_view(
     width: int | None = None,
     height: int | None = None,
     camera: bpy.types.Object | None = None,
+    display: bool = False,
 ) -> np.ndarray:
-    """(H, W, 4) float32 linear image of the baked objects drawn with the PRT shader from the
-    scene camera, offscreen, top row first (alpha 0 where nothing is drawn)."""
+    """(H, W, 4) float32 image of the baked objects drawn with the PRT shader from the scene
+    camera, offscreen, top row first (alpha 0 where nothing is drawn). display=False: linear
+    radiance. display=True: exactly as the viewport overlay draws it, display-referred (0..1):
+    times 2**exposure, through the scene's view transform, look, gamma and display device."""
     from .blender.display import offscreen as _offscreen
 
-    return _offscreen.render_view(scene, width, height, camera)
+    return _offscreen.render_view(scene, width, height, camera, display=display)
 
 
 def save_png(
