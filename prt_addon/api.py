@@ -60,7 +60,7 @@ def project_world(
     split_lights: True/False splits (or not) the world's compact bright sources off as disc
     lights for this call (world_lights reads them), None uses scene.prt_world.split_lights;
     threshold (luminance, 0: automatic) and max_lights (0 to 8) likewise override
-    light_threshold and max_lights for this call. The settings themselves are not changed.
+    auto_threshold / light_threshold and max_lights for this call. The settings themselves are not changed.
 
     Raises ValueError (prt_addon.blender.world.nodes.WorldError) with a clear message when the world
     cannot be projected or an argument is out of range; the stored lighting is then left unchanged.
