@@ -701,7 +701,7 @@ def test_texture_path_with_several_materials(bpy_module, lit_scene):
 def test_viewport_callback_draws_with_exposure_and_toggle(bpy_module, lit_scene, monkeypatch):
     """The draw-handler callback itself, run inside an offscreen with a stand-in for the 3D
     View's context: it draws what render_view(display=True) draws (2**exposure, the view
-    transform; the sRGB encoding is the overlay framebuffer's), and nothing when the sidebar
+    transform; the last step, colour.encode_display, is Blender's merge of the overlay), and nothing when the sidebar
     toggle is off."""
     import types
 
@@ -741,7 +741,7 @@ def test_viewport_callback_draws_with_exposure_and_toggle(bpy_module, lit_scene,
     frame = viewport_frame()
     mask = reference[..., 3] > 0
     assert mask.sum() > 1000
-    np.testing.assert_allclose(colour.encode_srgb(frame[mask, :3]), reference[mask, :3], rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(colour.encode_display(frame[mask, :3]), reference[mask, :3], rtol=1e-5, atol=1e-6)
     assert np.all(reference[mask, :3] >= unexposed[mask, :3]) and np.mean(reference - unexposed) > 0.01
     lit_scene.prt.show_display = False
     assert np.all(viewport_frame() == 0.0)

@@ -8,8 +8,8 @@ transform, look, gamma, curve mapping and white balance (exposure stays a scale 
 it is a plain multiplication of scene-linear values before all of these), and is read back from
 a 16-bit PNG. The nodes are spaced evenly in log2 around 0.18 over the range AgX itself covers
 (about 25 stops), node 0 being exactly black. The shader looks the table up once per pixel
-(hardware trilinear filtering) and decodes the sRGB encoding, because the overlay framebuffer
-encodes again on write.
+(hardware trilinear filtering) and writes code^2.2: Blender's display shader turns overlay values
+into display code values as value^(1/2.2) (measured on screen in Blender 4.3, docs/display.md).
 
 Tables are built outside drawing: by a timer that compares a key of every window's view
 settings (`register_timer`), or on demand by offscreen renders (`ensure_table`). The draw
@@ -29,6 +29,7 @@ LOG2_MAX = 10.0
 CHECK_INTERVAL = 0.25  # seconds between the timer's comparisons of the view settings
 MAX_TABLES = 4  # tables kept (one per view-settings key: several windows, quick toggles)
 LUT_SLOT = 9  # sampler slot: 0 is the transfer texture, 1..8 the shadow maps (shader_suns)
+MERGE_GAMMA = 2.2  # Blender merges the overlay as overlay^(1/2.2) into its display code values
 
 GLSL = f"""
 vec3 display_transform(vec3 linear)
@@ -38,8 +39,7 @@ vec3 display_transform(vec3 linear)
   }}
   vec3 t = (log2(max(linear, vec3(1.0e-30))) - ({LOG2_MIN})) / {LOG2_MAX - LOG2_MIN};
   t = clamp(t, 0.0, 1.0) * {(LUT_SIZE - 1) / LUT_SIZE} + {0.5 / LUT_SIZE};
-  vec3 e = texture(display_lut, t).rgb;
-  return mix(e / 12.92, pow((e + 0.055) / 1.055, vec3(2.4)), step(vec3(0.04045), e));
+  return pow(texture(display_lut, t).rgb, vec3({MERGE_GAMMA}));
 }}
 """
 
@@ -185,10 +185,12 @@ def bind(shader, lut):
         shader.uniform_sampler("display_lut", lut)
 
 
-def encode_srgb(linear):
-    """The sRGB encoding the overlay framebuffer applies on write (numpy, any shape)."""
+def encode_display(linear):
+    """The display code values Blender shows for overlay values (numpy, any shape): the overlay
+    buffer stores them sRGB-encoded, and Blender's display shader decodes them and merges them into
+    the display code values as linear^(1/2.2)."""
     x = np.clip(np.asarray(linear, dtype=np.float32), 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055).astype(np.float32)
+    return np.power(x, 1.0 / MERGE_GAMMA).astype(np.float32)
 
 
 def _check():

@@ -5,7 +5,8 @@ handler (draw_objects), into an RGBA32F GPUOffScreen with its own depth buffer. 
 baked objects only; the background is transparent (alpha 0). The result is linear scene radiance
 times albedo (no exposure, no view transform), row 0 at the top of the picture; or, with
 display=True, the display-referred image the viewport overlay shows: exposure, the scene's display
-transform in the shader (colour.py), and the sRGB encoding the overlay's framebuffer applies.
+transform in the shader (colour.py), and the way Blender turns overlay values into display code
+values (colour.encode_display).
 """
 
 import bpy
@@ -78,7 +79,8 @@ def render_view(scene=None, width=None, height=None, camera=None, objects=None, 
     width/height default to the scene's render size; objects default to the visible baked
     objects of the first view layer; scale multiplies the radiance (e.g. lighting.exposure_scale).
     display=False: linear radiance. display=True: as the viewport overlay draws it, the radiance
-    times 2**exposure through the scene's display transform, sRGB-encoded (0..1, not quantised).
+    times 2**exposure through the scene's display transform, as display code values (0..1, not
+    quantised).
     """
     scene = scene or bpy.context.scene
     if width is None or height is None:
@@ -112,8 +114,8 @@ def render_view(scene=None, width=None, height=None, camera=None, objects=None, 
     finally:
         offscreen.free()
     image = image[::-1].copy()
-    if display:  # what the overlay's sRGB framebuffer does on write
-        image[..., :3] = colour.encode_srgb(image[..., :3])
+    if display:  # the code values Blender's display shader makes of the overlay's values
+        image[..., :3] = colour.encode_display(image[..., :3])
     return image
 
 
