@@ -20,9 +20,8 @@ import bpy
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import real_blender_colour  # noqa: E402  (next to this file)
 
-# Every check, in the order printed. real_blender_check.sh reads this tuple from the source (it fills in the
-# last one from Blender's output) so that it can fail all of them when there is no result at all; a failed
-# set-up (no numpy, zip not installed, extension not enabled) fails all.
+# Every check, in the order printed. real_blender_check.sh reads this tuple from the source (it fills in the last
+# one from Blender's output) to fail all of them when there is no result; a failed set-up fails all of them too.
 CHECKS = (
     "extension installed and enabled",
     "embreex imports",
@@ -271,8 +270,7 @@ def step():
         state["tab_tries"] = 0
         return 0.3
     if phase == "sidebar":
-        # active_panel_category is read-only in 4.3: click down the tab strip at the sidebar's
-        # right edge, 8 px at a time from the top, until the PRT tab is the active one.
+        # active_panel_category is read-only in 4.3: click down the tab strip's right edge, 8 px at a time, to PRT.
         area = window_context()["area"]
         sidebar = [r for r in area.regions if r.type == "UI"][0]
         if sidebar.active_panel_category != "PRT" and state["tab_tries"] < 60:
@@ -302,7 +300,9 @@ def step():
         state["t"] = time.perf_counter()
         return 1.5
     if phase == "colour":
-        real_blender_colour.run(result, mod, window_context())
+        wait = real_blender_colour.step(result, mod, window_context())  # (over several ticks)
+        if wait:
+            return wait
         phase = "long"
     if phase == "long":
         # A long bake, cancelled with Esc once it is under way.

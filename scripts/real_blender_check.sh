@@ -53,7 +53,8 @@ print(f"{sum(checks.values())}/{len(checks)} checks passed")
 if shots:
     print(f"screenshots: {work}/display_on.png, {work}/display_rotated.png, {work}/shots/")
 colour = r.get("colour", {})
-for key in ("view_transform", "screen_pixels_compared", "screen_vs_offscreen_mean", "screen_vs_offscreen_p99"):
+for key in ("view_transform", "screen_pixels_compared", "screen_vs_offscreen_mean", "screen_vs_offscreen_p99",
+            "dirty_after_save", "dirty_after_table_build"):
     print(f"colour: {key} = {colour.get(key)}")
 for name, (mean, top, count) in colour.get("per_transform", {}).items():
     print(f"colour: {name}: display vs save_render mean {mean:.2f} max {top:.2f} /255 over {count} pixels")

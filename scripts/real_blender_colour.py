@@ -5,7 +5,8 @@ compares (1) the 3D View's pixels (screen.screenshot_area) with the same view dr
 through draw_objects and the display transform, encoded as render_view(display=True) does,
 and (2) render_view(display=True) with the linear render_view pushed through Image.save_render
 for every view transform, exposure 0.7 and gamma 1.3; and saves the PRT view beside a Cycles
-render (direct light only) of the same camera under the scene's view transform.
+render (direct light only) of the same camera under the scene's view transform; and checks that
+building a table (a temporary scene and images) leaves a saved file unmodified.
 """
 
 import importlib
@@ -196,6 +197,29 @@ def prepare(ctx):
     ctx["area"].tag_redraw()
 
 
+def step(result, mod, ctx):
+    """One tick of the colour phase: -> seconds until the next, or None when done. The last two
+    ticks ask whether building a table (the timer's work after a file opens) marks a saved file
+    modified, each after the event loop has run."""
+    ticks = result.setdefault("colour_ticks", 0)
+    result["colour_ticks"] += 1
+    if ticks == 0:
+        run(result, mod, ctx)
+        with bpy.context.temp_override(**ctx):
+            bpy.ops.wm.save_as_mainfile(filepath=os.path.join(os.getcwd(), "colour", "saved.blend"))
+        return 1.0
+    out, colour = result["colour"], mod("blender.display.colour")
+    if ticks == 1:
+        out["dirty_after_save"] = bpy.data.is_dirty
+        colour.clear()
+        colour._check()
+        return 1.0
+    out["dirty_after_table_build"] = bpy.data.is_dirty
+    for name in _selected:  # (the long bake that follows bakes the selection)
+        bpy.context.scene.objects[name].select_set(True)
+    return None
+
+
 def run(result, mod, ctx):
     """Every colour measurement into result["colour"]; an exception is recorded, not raised."""
     import traceback
@@ -216,8 +240,6 @@ def run(result, mod, ctx):
             step()
         except Exception:  # noqa: BLE001
             out.setdefault("errors", []).append(traceback.format_exc())
-    for name in _selected:  # (the long bake that follows bakes the selection)
-        bpy.context.scene.objects[name].select_set(True)
 
 
 def passed(r):
@@ -230,5 +252,7 @@ def passed(r):
         and (c.get("screen_vs_offscreen_mean") or 99) <= SUPPORTED_LIMIT
         and {"Standard", "AgX", "Filmic", "Khronos PBR Neutral"} <= set(rows)
         and all(mean <= SUPPORTED_LIMIT for name, (mean, _max, _n) in rows.items() if name not in APPROXIMATE)
+        and c.get("dirty_after_save") is False
+        and c.get("dirty_after_table_build") is False
         and "errors" not in c
     )
