@@ -54,7 +54,7 @@ if shots:
     print(f"screenshots: {work}/display_on.png, {work}/display_rotated.png, {work}/shots/")
 colour = r.get("colour", {})
 for key in ("view_transform", "screen_pixels_compared", "screen_vs_offscreen_mean", "screen_vs_offscreen_p99",
-            "dirty_after_save", "dirty_after_table_build"):
+            "dirty_after_save", "dirty_after_table_build", "timer_rebuilt_table", "timer_followed_filmic"):
     print(f"colour: {key} = {colour.get(key)}")
 for name, (mean, top, count) in colour.get("per_transform", {}).items():
     print(f"colour: {name}: display vs save_render mean {mean:.2f} max {top:.2f} /255 over {count} pixels")

@@ -198,9 +198,10 @@ def prepare(ctx):
 
 
 def step(result, mod, ctx):
-    """One tick of the colour phase: -> seconds until the next, or None when done. The last two
-    ticks ask whether building a table (the timer's work after a file opens) marks a saved file
-    modified, each after the event loop has run."""
+    """One tick of the colour phase: -> seconds until the next, or None when done. The later
+    ticks, each after the event loop has run: whether the add-on's own timer builds a dropped table
+    again without marking a saved file modified, and builds a new one after a change of the view
+    transform."""
     ticks = result.setdefault("colour_ticks", 0)
     result["colour_ticks"] += 1
     if ticks == 0:
@@ -209,12 +210,18 @@ def step(result, mod, ctx):
             bpy.ops.wm.save_as_mainfile(filepath=os.path.join(os.getcwd(), "colour", "saved.blend"))
         return 1.0
     out, colour = result["colour"], mod("blender.display.colour")
+    scene = bpy.context.scene
     if ticks == 1:
         out["dirty_after_save"] = bpy.data.is_dirty
-        colour.clear()
-        colour._check()
+        colour.clear()  # (the timer, every 0.25 s, builds it again)
         return 1.0
-    out["dirty_after_table_build"] = bpy.data.is_dirty
+    if ticks == 2:
+        out["dirty_after_table_build"] = bpy.data.is_dirty
+        out["timer_rebuilt_table"] = colour.view_key(scene) in colour._tables
+        scene.view_settings.view_transform = "Filmic"
+        return 1.0
+    out["timer_followed_filmic"] = colour.view_key(scene) in colour._tables
+    scene.view_settings.view_transform = "AgX"
     for name in _selected:  # (the long bake that follows bakes the selection)
         bpy.context.scene.objects[name].select_set(True)
     return None
@@ -254,5 +261,7 @@ def passed(r):
         and all(mean <= SUPPORTED_LIMIT for name, (mean, _max, _n) in rows.items() if name not in APPROXIMATE)
         and c.get("dirty_after_save") is False
         and c.get("dirty_after_table_build") is False
+        and bool(c.get("timer_rebuilt_table"))
+        and bool(c.get("timer_followed_filmic"))
         and "errors" not in c
     )
