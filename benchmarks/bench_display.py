@@ -1,5 +1,6 @@
 """Display benchmark: per-frame draw cost of the PRT shader against a flat-shaded draw
-of the same batch, and the cost of a lighting-rotation update per order.
+of the same batch, with and without the display transform, the cost of a lighting-rotation
+update per order, and the time to build a display-transform table.
 
     .venv/bin/python benchmarks/bench_display.py [--triangles 1000000] [--frames 15] [--size 512]
 
@@ -24,7 +25,7 @@ import numpy as np  # noqa: E402
 
 import prt_addon  # noqa: E402
 from prt_addon.blender import storage
-from prt_addon.blender.display import gpu_cache
+from prt_addon.blender.display import colour, gpu_cache
 from prt_addon.blender.display import draw as display_draw
 from prt_addon.blender.display import shader as display_shader
 from prt_addon.blender.display import lighting
@@ -85,9 +86,9 @@ def write_transfer(obj, order):
     mesh["prt_bake"] = {"order": order, "count": count, "domain": "POINT"}
 
 
-def time_frames(scene, obj, mvp, entry, prt_shader, flat, frames, size):
+def time_frames(scene, obj, mvp, entry, prt_shader, flat, frames, size, lut):
     off = gpu.types.GPUOffScreen(size, size, format="RGBA32F")
-    prt_times, flat_times = [], []
+    prt_times, flat_times, display_times = [], [], []
     with off.bind():
         fb = gpu.state.active_framebuffer_get()
         gpu.state.depth_test_set("LESS_EQUAL")
@@ -98,6 +99,8 @@ def time_frames(scene, obj, mvp, entry, prt_shader, flat, frames, size):
             t0 = time.perf_counter()
             if kind == "prt":
                 display_draw.draw_objects(scene, mvp, [obj])
+            elif kind == "display":
+                display_draw.draw_objects(scene, mvp, [obj], display_lut=lut)
             else:
                 flat.bind()
                 flat.uniform_float("mvp", mvp @ obj.matrix_world)
@@ -107,13 +110,14 @@ def time_frames(scene, obj, mvp, entry, prt_shader, flat, frames, size):
             fb.read_color(size // 2, size // 2, 1, 1, 4, 0, "FLOAT")  # wait for the GPU
             return time.perf_counter() - t0
 
-        frame("prt"), frame("flat")  # warm up (upload, compile)
+        frame("prt"), frame("flat"), frame("display")  # warm up (upload, compile)
         for _ in range(frames):
             prt_times.append(frame("prt"))
             flat_times.append(frame("flat"))
+            display_times.append(frame("display"))
         gpu.state.depth_test_set("NONE")
     off.free()
-    return statistics.median(prt_times), statistics.median(flat_times)
+    return statistics.median(prt_times), statistics.median(flat_times), statistics.median(display_times)
 
 
 def rotation_update_cost(order, repeats=50):
@@ -170,19 +174,25 @@ def main():
         f"mesh: {len(obj.data.loop_triangles):,} triangles, {len(obj.data.vertices):,} vertices; "
         f"{args.size}x{args.size} offscreen, median of {args.frames} interleaved frames"
     )
-    print(f"{'order':>5} {'coeffs':>6} {'path':>8} {'flat ms':>9} {'PRT ms':>9} {'ratio':>6}")
+    lut = colour.texture(scene, build=True)
+    print("PRT+colour: the same PRT draw through the scene's display transform (colour.py)")
+    print(
+        f"{'order':>5} {'coeffs':>6} {'path':>8} {'flat ms':>9} {'PRT ms':>9} {'ratio':>6} "
+        f"{'PRT+colour ms':>13} {'/ PRT':>6}"
+    )
     for order in args.orders:
         gpu_cache.clear_caches()
         write_transfer(obj, order)
         lighting.set_light_override(scene, analytic.cap_coeffs(order, (1, 0, 0), 0.3, radiance=(5, 4, 3)))
         info, _ = storage.usable_bake(obj.data)
         entry = gpu_cache.get_mesh_entry(obj.data, info, "WHITE", "")
-        prt_t, flat_t = time_frames(
-            scene, obj, mvp, entry, display_shader.get_shader(info.count), flat, args.frames, args.size
+        prt_t, flat_t, display_t = time_frames(
+            scene, obj, mvp, entry, display_shader.get_shader(info.count), flat, args.frames, args.size, lut
         )
         print(
             f"{order:>5} {order * order:>6} {display_shader.shader_mode(info.count):>8} "
-            f"{flat_t * 1e3:>9.1f} {prt_t * 1e3:>9.1f} {prt_t / flat_t:>6.2f}"
+            f"{flat_t * 1e3:>9.1f} {prt_t * 1e3:>9.1f} {prt_t / flat_t:>6.2f} "
+            f"{display_t * 1e3:>13.1f} {display_t / prt_t:>6.2f}"
         )
 
     print()
@@ -190,6 +200,14 @@ def main():
     print(f"{'order':>5} {'ms':>8}")
     for order in (2, 3, 4, 6, 8, 12, 16):
         print(f"{order:>5} {rotation_update_cost(order) * 1e3:>8.3f}")
+    print()
+    times = []
+    for _ in range(5):
+        start = time.perf_counter()
+        colour.build_table(scene)
+        times.append(time.perf_counter() - start)
+    print(f"display-transform table ({colour.LUT_SIZE}^3, {scene.view_settings.view_transform}): ", end="")
+    print(f"median {statistics.median(times) * 1e3:.0f} ms, min {min(times) * 1e3:.0f} ms of 5 builds")
     prt_addon.unregister()
 
 

@@ -60,7 +60,7 @@ def project_world(
     split_lights: True/False splits (or not) the world's compact bright sources off as disc
     lights for this call (world_lights reads them), None uses scene.prt_world.split_lights;
     threshold (luminance, 0: automatic) and max_lights (0 to 8) likewise override
-    light_threshold and max_lights for this call. The settings themselves are not changed.
+    auto_threshold / light_threshold and max_lights for this call. The settings themselves are not changed.
 
     Raises ValueError (prt_addon.blender.world.nodes.WorldError) with a clear message when the world
     cannot be projected or an argument is out of range; the stored lighting is then left unchanged.
@@ -119,12 +119,15 @@ def render_view(
     width: int | None = None,
     height: int | None = None,
     camera: bpy.types.Object | None = None,
+    display: bool = False,
 ) -> np.ndarray:
-    """(H, W, 4) float32 linear image of the baked objects drawn with the PRT shader from the
-    scene camera, offscreen, top row first (alpha 0 where nothing is drawn)."""
+    """(H, W, 4) float32 image of the baked objects drawn with the PRT shader from the scene
+    camera, offscreen, top row first (alpha 0 where nothing is drawn). display=False: linear
+    radiance. display=True: exactly as the viewport overlay draws it, display-referred (0..1):
+    times 2**exposure, through the scene's view transform, look, gamma and display device."""
     from .blender.display import offscreen as _offscreen
 
-    return _offscreen.render_view(scene, width, height, camera)
+    return _offscreen.render_view(scene, width, height, camera, display=display)
 
 
 def save_png(

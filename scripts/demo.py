@@ -121,8 +121,6 @@ def build_scene(hdri_path):
     links.new(mapping.outputs["Vector"], environment.inputs["Vector"])
     links.new(environment.outputs["Color"], nodes["Background"].inputs["Color"])
     scene.world = world
-    scene.view_settings.view_transform = "Standard"  # the viewport overlay matches Standard (docs/display.md)
-    scene.view_settings.exposure = -1.0
     return scene
 
 

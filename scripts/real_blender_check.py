@@ -2,12 +2,11 @@
 
     blender --factory-startup --enable-event-simulate --python real_blender_check.py -- ZIP RESULT_JSON
 
-Installs the extension zip as a user would, checks which Embree the shared-buffer path binds to
-(and that it answers as embreex's own copy does), then drives the real modal bake through
-Blender's event loop: a bake to the end, one undo and one redo, then a long bake cancelled by a
-simulated Esc while this script's own timers sample its progress. Writes what it saw and a
-pass/fail verdict per check to RESULT_JSON.
-"""
+Installs the extension zip as a user would, checks which Embree the shared-buffer path binds to (and that it
+answers as embreex's own copy does), then drives the real modal bake through Blender's event loop: a bake to
+the end, one undo and one redo, the display and its colours (real_blender_colour.py), then a long bake
+cancelled by a simulated Esc while this script's timers sample its progress. Writes what it saw and a verdict
+per check to RESULT_JSON."""
 
 import json
 import os
@@ -18,9 +17,11 @@ import traceback
 
 import bpy
 
-# Every check, in the order printed. real_blender_check.sh reads this tuple from the source (it
-# fills in the last one from Blender's output) so that it can fail all of them when there is no
-# result at all; a failed set-up (no numpy, zip not installed, extension not enabled) fails all.
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import real_blender_colour  # noqa: E402  (next to this file)
+
+# Every check, in the order printed. real_blender_check.sh reads this tuple from the source (it fills in the last
+# one from Blender's output) to fail all of them when there is no result; a failed set-up fails all of them too.
 CHECKS = (
     "extension installed and enabled",
     "embreex imports",
@@ -32,6 +33,7 @@ CHECKS = (
     "redo brings it back unchanged",
     "the world projects and the display draws both baked objects",
     "the sidebar's PRT tab draws",
+    "the overlay shows the view transform as Blender applies it",
     "progress advances between timer events (the UI runs)",
     "Esc cancels within 1 s",
     "a cancelled bake leaves the attributes as they were",
@@ -202,12 +204,10 @@ def tick():
         return step()
     except SetupError as e:
         result["setup_error"] = str(e)
-        finish()
-        return None
     except Exception:  # noqa: BLE001
         result["exception"] = traceback.format_exc()
-        finish()
-        return None
+    finish()
+    return None
 
 
 PHASE_SECONDS = 120  # a phase that takes longer than this has hung: report it and quit
@@ -270,8 +270,7 @@ def step():
         state["tab_tries"] = 0
         return 0.3
     if phase == "sidebar":
-        # active_panel_category is read-only in 4.3: click down the tab strip at the sidebar's
-        # right edge, 8 px at a time from the top, until the PRT tab is the active one.
+        # active_panel_category is read-only in 4.3: click down the tab strip's right edge, 8 px at a time, to PRT.
         area = window_context()["area"]
         sidebar = [r for r in area.regions if r.type == "UI"][0]
         if sidebar.active_panel_category != "PRT" and state["tab_tries"] < 60:
@@ -295,11 +294,16 @@ def step():
         result["display_meshes_drawn"] = len(gpu_cache._mesh_cache)
         with bpy.context.temp_override(**window_context()):
             result["rotate"] = list(bpy.ops.prt.set_light_rotation(rotation=(0.0, 0.0, 2.0)))
-        window_context()["area"].tag_redraw()
+        real_blender_colour.prepare(window_context())  # (no outline over the compared pixels)
         result["rotated_at"] = time.time()
-        state["phase"] = "long"
+        state["phase"] = "colour"
         state["t"] = time.perf_counter()
         return 1.5
+    if phase == "colour":
+        wait = real_blender_colour.step(result, mod, window_context())  # (over several ticks)
+        if wait:
+            return wait
+        phase = "long"
     if phase == "long":
         # A long bake, cancelled with Esc once it is under way.
         bpy.context.scene.prt_bake.samples = 8192
@@ -368,6 +372,7 @@ def verdict():
         and r.get("display_meshes_drawn") == 2
         and r.get("rotate") == ["FINISHED"],
         "the sidebar's PRT tab draws": r.get("sidebar_tab") == "PRT",
+        real_blender_colour.CHECK: real_blender_colour.passed(r),
         "progress advances between timer events (the UI runs)": len(long_samples) >= 3
         and all(a < b for a, b in zip(long_samples, long_samples[1:])),
         "Esc cancels within 1 s": bool(r.get("cancel_report", {}).get("cancelled"))

@@ -52,6 +52,16 @@ if "exception" in r:
 print(f"{sum(checks.values())}/{len(checks)} checks passed")
 if shots:
     print(f"screenshots: {work}/display_on.png, {work}/display_rotated.png, {work}/shots/")
+colour = r.get("colour", {})
+for key in ("view_transform", "screen_pixels_compared", "screen_vs_offscreen_mean", "screen_vs_offscreen_p99",
+            "dirty_after_save", "dirty_after_table_build", "timer_rebuilt_table", "timer_followed_filmic"):
+    print(f"colour: {key} = {colour.get(key)}")
+for name, (mean, top, count) in colour.get("per_transform", {}).items():
+    print(f"colour: {name}: display vs save_render mean {mean:.2f} max {top:.2f} /255 over {count} pixels")
+for error in colour.get("errors", []):
+    print("colour error:", error)
+if os.path.isfile(os.path.join(work, "colour", "prt_vs_cycles.png")):
+    print(f"PRT beside Cycles: {work}/colour/prt_vs_cycles.png")
 sys.exit(0 if checks and all(checks.values()) else 1)
 PY
   exit 0
@@ -94,9 +104,9 @@ rm -rf "$work/dist"
 zips=("$work"/dist/*linux_x64.zip)
 [ -f "${zips[0]}" ] || report "scripts/build_extension.py wrote no *linux_x64.zip"
 zip_name=$(basename "${zips[0]}")
-rm -rf "$chroot_dir$inside" "$chroot_dir/root/.config/blender" "$work/shots"
+rm -rf "$chroot_dir$inside" "$chroot_dir/root/.config/blender" "$work/shots" "$work/colour"
 mkdir -p "$chroot_dir$inside/shots"
-cp "$work/dist/$zip_name" "$root/scripts/real_blender_check.py" "$chroot_dir$inside/"
+cp "$work/dist/$zip_name" "$root/scripts/real_blender_check.py" "$root/scripts/real_blender_colour.py" "$chroot_dir$inside/"
 
 # The X screen every 0.3 s while Blender runs (the status bar shows the bake's progress text).
 chroot "$chroot_dir" bash -c "cd $inside && (for i in \$(seq -w 1 150); do \
@@ -107,6 +117,7 @@ chroot "$chroot_dir" bash -c "cd $inside && (for i in \$(seq -w 1 150); do \
   > "$work/blender.log" 2>&1 || true
 sleep 1
 cp -r "$chroot_dir$inside/shots" "$work/shots"
+[ ! -d "$chroot_dir$inside/colour" ] || cp -r "$chroot_dir$inside/colour" "$work/colour"
 if [ ! -f "$chroot_dir$inside/result.json" ]; then
   report "Blender wrote no result; its output is in $work/blender.log: $(tail -n 3 "$work/blender.log" | tr '\n' ' ')"
 fi

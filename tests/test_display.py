@@ -700,20 +700,24 @@ def test_texture_path_with_several_materials(bpy_module, lit_scene):
 
 def test_viewport_callback_draws_with_exposure_and_toggle(bpy_module, lit_scene, monkeypatch):
     """The draw-handler callback itself, run inside an offscreen with a stand-in for the 3D
-    View's context: it draws what render_view draws, times 2**exposure, and nothing when the
-    sidebar toggle is off."""
+    View's context: it draws what render_view(display=True) draws (2**exposure, the view
+    transform; the last step, colour.encode_display, is Blender's merge of the overlay), and nothing when the sidebar
+    toggle is off."""
     import types
 
     import gpu
     import mathutils
     import prt_addon.api as api
+    from prt_addon.blender.display import colour, offscreen
     from prt_addon.blender.display import draw as display_draw
-    from prt_addon.blender.display import offscreen
 
     bake_sphere(bpy_module, 4, segments=32, rings=16)
     set_light(lit_scene, sun_sky_light(4))
     lit_scene.prt_display.albedo_source = "WHITE"
-    reference = api.render_view(lit_scene, 128, 128)
+    lit_scene.view_settings.exposure = 0.0
+    unexposed = api.render_view(lit_scene, 128, 128, display=True)
+    lit_scene.view_settings.exposure = 1.0
+    reference = api.render_view(lit_scene, 128, 128, display=True)
     view, proj = offscreen.camera_matrices(lit_scene, 128, 128)
     context = types.SimpleNamespace(
         scene=lit_scene,
@@ -734,10 +738,10 @@ def test_viewport_callback_draws_with_exposure_and_toggle(bpy_module, lit_scene,
         off.free()
         return img
 
-    lit_scene.view_settings.exposure = 1.0
     frame = viewport_frame()
     mask = reference[..., 3] > 0
     assert mask.sum() > 1000
-    np.testing.assert_allclose(frame[mask, :3], 2.0 * reference[mask, :3], rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(colour.encode_display(frame[mask, :3]), reference[mask, :3], rtol=1e-5, atol=1e-6)
+    assert np.all(reference[mask, :3] >= unexposed[mask, :3]) and np.mean(reference - unexposed) > 0.01
     lit_scene.prt.show_display = False
     assert np.all(viewport_frame() == 0.0)

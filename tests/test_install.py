@@ -88,7 +88,8 @@ def check_lifecycle(result):
     assert result["operators_after_disable"] == []
     assert result["handlers_after_disable"] == []
     assert result["functions_checked_for_timers"] > 50
-    assert result["timers_while_enabled"] == [] and result["timers_after_disable"] == []
+    # The one timer while enabled is the display's colour check (display/colour.py); none after.
+    assert result["timers_while_enabled"] == ["_check"] and result["timers_after_disable"] == []
     assert not result["draw_handler_after_disable"] and result["running_bakes_after_disable"] == 0
     assert result["uninstall"] == ["FINISHED"]
     assert not result["files_left"]

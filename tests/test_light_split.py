@@ -188,6 +188,10 @@ def test_one_colour_image_and_high_threshold_give_no_lights(bpy_module, empty_sc
     image_world(bpy_module, empty_scene, sunny_image(64, 128))
     api.project_world(empty_scene, 4, threshold=1e6)
     assert api.world_lights(empty_scene) == []
+    settings.auto_threshold, settings.light_threshold = False, 1e6  # the panel's manual threshold
+    api.project_world(empty_scene, 4)
+    assert api.world_lights(empty_scene) == []
+    settings.auto_threshold = True  # Auto ignores the number
     api.project_world(empty_scene, 4)
     lines = light_split.summary(settings)
     assert lines[0].startswith(f"{settings.light_count} light") and all(len(x) <= 32 for x in lines)

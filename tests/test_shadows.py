@@ -227,17 +227,21 @@ def test_vertices_agree_with_traced_visibility(bpy_module, ground_scene):
 
 def test_viewport_callback_with_suns_matches_render_view(bpy_module, ground_scene, monkeypatch):
     """The draw handler draws the shadow maps inside the viewport's frame (another framebuffer
-    bound, then the viewport's restored): the same image as render_view, drawn twice (cached)."""
+    bound, then the viewport's restored): the same image as render_view(display=True), drawn
+    twice (cached), and render_view's linear image under the Standard view transform."""
     import types
 
     import gpu
     import mathutils
     from prt_addon.blender.display import draw as display_draw
-    from prt_addon.blender.display import offscreen, shadows
+    import prt_addon.api as api
+    from prt_addon.blender.display import colour, offscreen, shadows
 
     scene, _ground = ground_scene
     set_suns(scene, [sun((0.3, -0.2, 1.0)), sun((-0.5, 0.1, 1.0), angle=0.05, power=(1.0, 1.0, 1.0))])
-    reference = render(scene)
+    scene.view_settings.exposure = 0.0
+    linear = render(scene)
+    reference = api.render_view(scene, SIZE, SIZE, display=True)
     shadows.clear_shadows()
     view, proj = offscreen.camera_matrices(scene, SIZE, SIZE)
     context = types.SimpleNamespace(
@@ -248,7 +252,6 @@ def test_viewport_callback_with_suns_matches_render_view(bpy_module, ground_scen
         evaluated_depsgraph_get=bpy_module.context.evaluated_depsgraph_get,
     )
     monkeypatch.setattr(display_draw, "bpy", types.SimpleNamespace(context=context, types=bpy_module.types))
-    scene.view_settings.exposure = 0.0
     off = gpu.types.GPUOffScreen(SIZE, SIZE, format="RGBA32F")
     frames = []
     with off.bind():
@@ -261,6 +264,11 @@ def test_viewport_callback_with_suns_matches_render_view(bpy_module, ground_scen
     mask = reference[..., 3] > 0
     assert mask.sum() > 10000
     for frame in frames:
-        np.testing.assert_allclose(frame[mask, :3], reference[mask, :3], rtol=1e-5, atol=1e-6)
-    dark = reference[mask, 0] < SKY[0] + 0.5 * POWER[0] / np.pi
+        np.testing.assert_allclose(colour.encode_display(frame[mask, :3]), reference[mask, :3], rtol=1e-5, atol=1e-6)
+    scene.view_settings.view_transform, scene.view_settings.gamma = "Standard", 1.0
+    standard = api.render_view(scene, SIZE, SIZE, display=True)
+    x = np.clip(linear[mask, :3], 0.0, 1.0)
+    srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
+    np.testing.assert_allclose(standard[mask, :3], srgb, atol=1.5 / 255)
+    dark = linear[mask, 0] < SKY[0] + 0.5 * POWER[0] / np.pi
     assert 100 < dark.sum() < mask.sum() - 1000  # the shadows are in the picture

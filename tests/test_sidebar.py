@@ -62,3 +62,51 @@ def test_long_labels_wrap_to_the_region_width(bpy_module):
     assert 20 <= width <= 40
     text = "Fast ray tracing (Embree) is not available here: baking is about 30 to 40 times slower"
     assert all(len(line) <= width for line in textwrap.wrap(text, width))
+
+
+class RecordingLayout:
+    """Stands in for a panel's UILayout: records what draw() puts in it (props with their text)."""
+
+    def __init__(self, log):
+        self.log = log
+
+    def prop(self, data, name, text=None, **_kw):
+        self.log.append(("prop", name, text))
+
+    def label(self, text="", **_kw):
+        self.log.append(("label", text))
+
+    def operator(self, idname, text=None, **_kw):
+        self.log.append(("operator", idname, text))
+
+    def row(self, **_kw):
+        return self
+
+    column = row
+
+
+def draw_panel(panel_class, scene):
+    import types
+
+    log = []
+    context = types.SimpleNamespace(scene=scene, active_object=None, region=types.SimpleNamespace(width=260))
+    panel_class.draw(types.SimpleNamespace(layout=RecordingLayout(log)), context)
+    return log
+
+
+def test_world_panel_reads_auto_threshold_and_display_panel_has_no_view_warning(bpy_module, empty_scene):
+    """An automatic threshold reads "Threshold: Auto" (no 0.00 field); turned off, the number shows.
+    The Display panel no longer warns about the view transform: the overlay applies it."""
+    from prt_addon.blender.ui import panels
+
+    settings = empty_scene.prt_world
+    settings.split_lights = True
+    log = draw_panel(panels.VIEW3D_PT_prt_world, empty_scene)
+    assert ("prop", "auto_threshold", "Threshold: Auto") in log
+    assert not any(entry[:2] == ("prop", "light_threshold") for entry in log)
+    settings.auto_threshold = False
+    log = draw_panel(panels.VIEW3D_PT_prt_world, empty_scene)
+    assert ("prop", "light_threshold", None) in log
+    empty_scene.view_settings.view_transform = "AgX"
+    log = draw_panel(panels.VIEW3D_PT_prt_display, empty_scene)
+    assert not any("view transform" in str(entry).lower() or "Standard" in str(entry) for entry in log), log

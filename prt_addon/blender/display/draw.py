@@ -3,8 +3,9 @@
 Per redraw (docs/display.md): the world light comes from lighting.world_light; per object it is
 rotated into the object's local frame and written into its uniform buffer only when it changed;
 the transfer batches come from gpu_cache. With split sun lights (lighting.world_lights) their
-shadow maps come from shadows.py and the sun variant of the shader is used. Nothing here changes
-Blender data.
+shadow maps come from shadows.py and the sun variant of the shader is used. The viewport draws
+through the scene's display transform (colour.py), whose table the draw only uploads. Nothing
+here changes Blender data.
 """
 
 import bpy
@@ -12,6 +13,7 @@ import gpu
 import numpy as np
 
 from .. import storage
+from . import colour
 from .albedo import _slot_tints, display_settings, material_colour
 from .gpu_cache import ObjectState, _object_cache, _prune, clear_caches, get_mesh_entry
 from .lighting import bounce_light_extra, exposure_scale, light_in_local_frame, world_light, world_lights
@@ -42,12 +44,13 @@ def baked_objects(scene, view_layer=None, viewport=None):
     return out
 
 
-def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, depsgraph=None):
+def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, depsgraph=None, display_lut=None):
     """Draw `objects` with the PRT shader into the bound framebuffer. Returns the number drawn.
 
     view_projection: 4x4 (mathutils.Matrix or array) world -> clip. The caller sets depth state.
     depsgraph: the evaluated depsgraph whose deformed meshes are drawn (deformed_mesh);
-    None draws every mesh undeformed.
+    None draws every mesh undeformed. display_lut: the 3D texture of colour.texture(scene), to
+    write display-linear values through the scene's view transform; None writes linear radiance.
     """
     import mathutils
 
@@ -88,6 +91,7 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
         shader.uniform_float("scale", float(scale))
         shader.uniform_float("depth_bias", float(depth_bias))
         shader.uniform_block("light", state.ubo)
+        colour.bind(shader, display_lut)
         if suns:
             _bind_suns(shader, state, suns, maps, mw)
         if entry.texture is not None:
@@ -141,6 +145,7 @@ def _draw_callback():
             scale=exposure_scale(scene),
             depth_bias=VIEWPORT_DEPTH_BIAS,
             depsgraph=context.evaluated_depsgraph_get(),
+            display_lut=colour.texture(scene),  # (built by colour's timer, never here)
         )
     finally:
         gpu.state.depth_mask_set(depth_mask)

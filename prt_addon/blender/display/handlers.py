@@ -1,10 +1,10 @@
-"""App handlers of the display: file load and geometry updates; every one removed on unregister."""
+"""App handlers of the display (file load, geometry updates) and its colour timer; all removed on unregister."""
 
 import bpy
 from bpy.app.handlers import persistent
 
 from .. import storage
-from . import draw, gpu_cache, shader, shadows
+from . import colour, draw, gpu_cache, shader, shadows
 from .lighting import clear_light_overrides
 
 
@@ -52,9 +52,11 @@ def register_handlers():
         if func not in handlers:
             handlers.append(func)
     draw.add_draw_handler()
+    colour.register_timer()
 
 
 def unregister_handlers():
+    colour.unregister_timer()
     draw.remove_draw_handler()
     for name, func in _APP_HANDLERS:
         handlers = getattr(bpy.app.handlers, name)

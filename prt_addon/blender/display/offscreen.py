@@ -3,7 +3,10 @@
 `render_view` draws the same batches with the same shader and light buffers as the viewport draw
 handler (draw_objects), into an RGBA32F GPUOffScreen with its own depth buffer. It draws
 baked objects only; the background is transparent (alpha 0). The result is linear scene radiance
-times albedo (no exposure, no view transform), row 0 at the top of the picture.
+times albedo (no exposure, no view transform), row 0 at the top of the picture; or, with
+display=True, the display-referred image the viewport overlay shows: exposure, the scene's display
+transform in the shader (colour.py), and the way Blender turns overlay values into display code
+values (colour.encode_display).
 """
 
 import bpy
@@ -11,7 +14,9 @@ import gpu
 import numpy as np
 
 from ..world import nodes
+from . import colour
 from .draw import baked_objects, draw_objects
+from .lighting import exposure_scale
 
 
 def gpu_ready():
@@ -68,11 +73,14 @@ def render_size(scene):
     return max(1, int(scene.render.resolution_x * pct)), max(1, int(scene.render.resolution_y * pct))
 
 
-def render_view(scene=None, width=None, height=None, camera=None, objects=None, scale=1.0):
-    """(H, W, 4) float32 linear image of the baked objects seen by the camera, top row first.
+def render_view(scene=None, width=None, height=None, camera=None, objects=None, scale=1.0, display=False):
+    """(H, W, 4) float32 image of the baked objects seen by the camera, top row first.
 
     width/height default to the scene's render size; objects default to the visible baked
     objects of the first view layer; scale multiplies the radiance (e.g. lighting.exposure_scale).
+    display=False: linear radiance. display=True: as the viewport overlay draws it, the radiance
+    times 2**exposure through the scene's display transform, as display code values (0..1, not
+    quantised).
     """
     scene = scene or bpy.context.scene
     if width is None or height is None:
@@ -85,6 +93,10 @@ def render_view(scene=None, width=None, height=None, camera=None, objects=None, 
     if objects is None:
         view_layer = bpy.context.view_layer if scene == bpy.context.scene else scene.view_layers[0]
         objects = baked_objects(scene, view_layer)
+    lut = None
+    if display:
+        scale = scale * exposure_scale(scene)
+        lut = colour.texture(scene, build=True)
     offscreen = gpu.types.GPUOffScreen(width, height, format="RGBA32F")
     try:
         with offscreen.bind():
@@ -93,7 +105,7 @@ def render_view(scene=None, width=None, height=None, camera=None, objects=None, 
             gpu.state.depth_test_set("LESS_EQUAL")
             gpu.state.depth_mask_set(True)
             try:
-                draw_objects(scene, projection @ view, objects, scale=scale, depsgraph=depsgraph)
+                draw_objects(scene, projection @ view, objects, scale=scale, depsgraph=depsgraph, display_lut=lut)
             finally:
                 gpu.state.depth_test_set("NONE")
             buf = fb.read_color(0, 0, width, height, 4, 0, "FLOAT")
@@ -101,7 +113,10 @@ def render_view(scene=None, width=None, height=None, camera=None, objects=None, 
             image = np.asarray(buf).T.reshape(height, width, 4).copy()
     finally:
         offscreen.free()
-    return image[::-1].copy()
+    image = image[::-1].copy()
+    if display:  # the code values Blender's display shader makes of the overlay's values
+        image[..., :3] = colour.encode_display(image[..., :3])
+    return image
 
 
 def save_png(image, path, scene=None, background=None):

@@ -3,12 +3,16 @@
 The transfer t comes as vertex attributes while they fit in the 16 vertex-attribute limit
 (orders <= 7), otherwise from an RGBA32F texture read with texelFetch at gl_VertexID; the light
 is a uniform buffer (std140, vec4-padded). The vertex shader computes max(sum_i L_i t_i, 0) per
-colour channel times the albedo; the fragment shader writes it. With sun lights (shadows.py) a
-variant adds per pixel albedo * sum_l P_l/pi * max(0, n.s_l) * V_l (shader_suns.py).
+colour channel times the albedo; the fragment shader writes it through the scene's display
+transform (colour.GLSL: display_transform, one 3D-table lookup; display_mode 0 leaves it linear).
+With sun lights (shadows.py) a variant adds per pixel albedo * sum_l P_l/pi * max(0, n.s_l) * V_l
+(shader_suns.py) before that transform.
 """
 
 import gpu
 import numpy as np
+
+from . import colour
 
 
 # GL guarantees (and llvmpipe offers) 16 vertex attributes; position and albedo use two.
@@ -36,7 +40,7 @@ void main()
 _FRAGMENT = """
 void main()
 {
-  FragColor = vec4(radiance, 1.0);
+  FragColor = vec4(display_transform(radiance), 1.0);
 }
 """
 
@@ -128,9 +132,10 @@ def get_shader(count, lights=0, bounce_channels=0):
         iface.smooth("VEC3", "radiance")
         info.vertex_out(iface)
         vertex, fragment = _VERTEX_COMMON % body, _FRAGMENT
+    colour.declare(info)
     info.fragment_out(0, "VEC4", "FragColor")
     info.vertex_source(vertex)
-    info.fragment_source(fragment)
+    info.fragment_source(colour.GLSL + fragment)
     shader = gpu.shader.create_from_info(info)
     _shaders[key] = shader
     return shader

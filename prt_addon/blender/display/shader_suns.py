@@ -106,7 +106,7 @@ def add_suns(info, lights, vertex_source, attr_index):
         "  vec3 sun = vec3(0.0);\n"
         "  float c;\n"
         f"{per_light}\n"
-        "  FragColor = vec4(radiance + surface_albedo * sun, 1.0);\n"
+        "  FragColor = vec4(display_transform(radiance + surface_albedo * sun), 1.0);\n"
         "}\n"
     )
     return vertex, fragment

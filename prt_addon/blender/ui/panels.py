@@ -32,7 +32,11 @@ class VIEW3D_PT_prt_world(PRTSubPanel, bpy.types.Panel):
         layout.prop(settings, "split_lights")
         if settings.split_lights:
             row = layout.row(align=True)
-            row.prop(settings, "light_threshold")
+            if settings.auto_threshold:
+                row.prop(settings, "auto_threshold", text="Threshold: Auto", toggle=True)
+            else:
+                row.prop(settings, "auto_threshold", text="Auto", toggle=True)
+                row.prop(settings, "light_threshold")
             row.prop(settings, "max_lights")
         layout.operator("prt.project_world")
         if settings.stored_order < 1:
@@ -82,16 +86,6 @@ class VIEW3D_PT_prt_display(PRTSubPanel, bpy.types.Panel):
                 wrapped_label(layout, context, f"{obj.name} is not drawn: {problem}", icon="ERROR")
             else:
                 layout.label(text=f"{obj.name}: drawn at order {info.order}")
-        view = scene.view_settings
-        if view.view_transform != "Standard":
-            wrapped_label(
-                layout,
-                context,
-                f"PRT colours are shown as with the Standard view transform, "
-                f"not {view.view_transform}: set Color Management > View Transform to Standard "
-                "to compare them with Blender's",
-                icon="INFO",
-            )
 
 
 CLASSES = [

@@ -64,11 +64,15 @@ class PRT_PG_world(bpy.types.PropertyGroup):
         "of the SH as disc lights with their own shadows; SH of any order cannot hold them",
         default=True,
     )
+    auto_threshold: bpy.props.BoolProperty(
+        name="Auto Threshold",
+        description="Choose the light threshold from the image: the larger of 8 times its mean luminance and "
+        "the level that keeps the bright texels within 1 % of the sphere",
+        default=True,
+    )
     light_threshold: bpy.props.FloatProperty(
         name="Threshold",
-        description="Luminance above which texels become lights (0: automatic, the larger of 8 times the "
-        "image's mean luminance and the level that keeps the bright texels within 1 % of "
-        "the sphere)",
+        description="Luminance above which texels become lights, when Auto Threshold is off (0 is automatic too)",
         default=0.0,
         min=0.0,
         soft_max=1000.0,

@@ -76,7 +76,8 @@ def project(scene, order, force_render=False, split_lights=None, threshold=None,
         raise WorldError(str(error)) from None
     settings = getattr(scene, "prt_world", None)
     split_lights = bool(getattr(settings, "split_lights", False) if split_lights is None else split_lights)
-    threshold = getattr(settings, "light_threshold", 0.0) if threshold is None else threshold
+    if threshold is None:  # (0 is the automatic threshold)
+        threshold = 0.0 if getattr(settings, "auto_threshold", True) else getattr(settings, "light_threshold", 0.0)
     max_lights = getattr(settings, "max_lights", core_lights.MAX_LIGHTS // 2) if max_lights is None else max_lights
     threshold, max_lights = light_split.check_split_settings(threshold, max_lights)
     start = time.perf_counter()
