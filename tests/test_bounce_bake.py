@@ -356,3 +356,73 @@ def test_textured_and_over_bright_albedo(bpy_module, empty_scene):
     bsdf.inputs["Color"].default_value = (1.0, 0.2, 0.2, 1.0)
     api.bake(objs, order=2, samples=64, bounces=1)
     np.testing.assert_array_equal(bright, storage.read_bounce(objs[0].data))
+
+
+def test_a_mirrored_wall_reflects_like_the_same_wall_unmirrored(bpy_module, empty_scene):
+    """Scale -1 reverses a mesh's winding in world space; its faces must still reflect (a plane
+    mirrored across its own plane's normal axis is the same surface)."""
+    from prt_addon.blender import storage
+
+    objs = open_room(bpy_module, empty_scene)
+    api.project_world(empty_scene, 2)
+    floor, wall = objs[0], objs[3]  # the back wall, a plane in y = 2 facing -y
+    for obj in objs[1:]:
+        if obj is not wall:
+            obj.hide_viewport = True
+    api.bake([floor], order=2, samples=128, bounces=1)
+    plain = storage.read_bounce(floor.data).copy()
+    assert plain[:, 0, 0].mean() > 0.01
+    wall.scale = (-1.0, 1.0, 1.0)  # mirrored across its local x: the same plane, reversed winding
+    api.bake([floor], order=2, samples=128, bounces=1)
+    mirrored = storage.read_bounce(floor.data)
+    # The same surface, but its quads split along the other diagonal in world space and its
+    # vertices in another order, so the hits' corners differ: the same light up to sampling
+    # (before the fix, a mirrored mesh reflected nothing at all).
+    assert mirrored[:, 0, 0].mean() == pytest.approx(plain[:, 0, 0].mean(), rel=0.02)
+    assert np.corrcoef(mirrored[:, 0, 0], plain[:, 0, 0])[0, 1] > 0.9
+
+
+def test_more_than_a_hundred_attributes_are_written_and_cleaned(bpy_module, empty_scene):
+    """Order 11 in colour: 31 x 4 = 124 attributes (prt_t00 .. prt_t123); baking again without
+    bounces leaves the 31 direct ones only."""
+    from prt_addon.blender import storage
+
+    objs = open_room(bpy_module, empty_scene)
+    api.project_world(empty_scene, 2)
+    api.bake(objs, order=11, samples=16, bounces=1)
+    mesh = objs[0].data
+    assert len(storage.transfer_attribute_names(mesh)) == 124 and api.bake_status(objs[0]) == "fresh"
+    assert storage.read_bounce(mesh).shape[1:] == (3, 121)
+    snap = storage.snapshot(mesh)
+    assert len(snap["attrs"]) == 124
+    api.bake(objs, order=11, samples=16)
+    assert len(storage.transfer_attribute_names(mesh)) == 31
+    assert mesh.attributes.get("prt_t100") is None
+
+
+def test_an_emission_shader_reflects_nothing(bpy_module, empty_scene):
+    """Emission is not light for the bake, and an Emission-only surface has no diffuse BSDF: as
+    in Cycles it reflects nothing, so the red wall's tint on the floor disappears."""
+    from prt_addon.blender import storage
+
+    objs = open_room(bpy_module, empty_scene)
+    api.project_world(empty_scene, 2)
+    floor, red_wall = objs[0], objs[1]
+    x = np.array([floor.matrix_world @ v.co for v in floor.data.vertices])[:, 0]
+
+    def tint():
+        b = storage.read_bounce(floor.data)[:, :, 0]
+        if b.shape[1] == 1:  # every albedo grey (the wall reflects nothing): one channel, no tint
+            return 1.0
+        near_red, near_white = b[x < -1.2].mean(axis=0), b[x > 1.2].mean(axis=0)
+        return (near_red[0] / near_red[1]) / (near_white[0] / near_white[1])
+
+    api.bake(objs, order=2, samples=128, bounces=1)
+    assert tint() > 1.3
+    tree = red_wall.data.materials[0].node_tree
+    emission = tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (1.0, 0.0, 0.0, 1.0)
+    tree.links.new(emission.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    report = api.bake(objs, order=2, samples=128, bounces=1)
+    assert any("Emission shader reflects nothing" in note for note in report.albedo_notes)
+    assert tint() < 1.05

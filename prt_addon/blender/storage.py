@@ -27,7 +27,7 @@ RECORD = "prt_bake"
 FORMAT_VERSION = 2  # 2: interreflected bakes (bounce attributes); a bake without bounces is still written as 1
 
 
-_ATTR_RE = re.compile(r"^prt_t\d\d$")
+_ATTR_RE = re.compile(r"^prt_t\d{2,}$")  # prt_t00 .. prt_t99, then prt_t100 .. (bounced bakes)
 
 
 def attribute_name(k):

@@ -53,8 +53,8 @@ class HitTransport:
     vertices, triangles: the occluder's triangle soup (the primitive ids the occluder returns
     index `triangles`); node_triangles: (T, 3) the node of each triangle corner (-1: the triangle
     reflects nothing); albedo: a scalar, (T,) or (T, C) diffuse albedo per triangle, clamped to
-    [0, 1];
-    n_dirs: the size of the direction set.
+    [0, 1]; n_dirs: the size of the direction set; orientation: None or (T,) +1 / -1, the sign
+    by which a triangle's winding normal (b - a) x (c - a) points out of its front face.
     """
 
     def __init__(
@@ -65,10 +65,14 @@ class HitTransport:
         albedo: npt.ArrayLike,
         n_dirs: int,
         seed: int = 0,
+        orientation: npt.ArrayLike | None = None,
     ) -> None:
         v = np.asarray(vertices, dtype=np.float64)
         t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-        self.normals = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]).astype(np.float32)
+        normals = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
+        if orientation is not None:  # -1: a triangle whose winding is reversed (a mirrored object)
+            normals *= np.asarray(orientation, dtype=np.float64).reshape(-1, 1)
+        self.normals = normals.astype(np.float32)
         self.node_triangles = np.asarray(node_triangles, dtype=np.int32).reshape(-1, 3)
         if len(self.node_triangles) != len(t):
             raise ValueError("node_triangles must have one row per triangle")
@@ -118,6 +122,7 @@ class Transport:
     """
 
     def __init__(self, entries: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]], n_rows: int, channels: int):
+        """entries: (rows, nodes, weights) tuples (a list is emptied: it is consumed)."""
         parts = [e for e in entries if len(e[0])]
         self.n_rows = int(n_rows)
         self.channels = int(channels)
@@ -129,6 +134,8 @@ class Transport:
         nodes = np.concatenate([p[1] for p in parts])
         weights = np.concatenate([p[2] for p in parts])
         del parts
+        if isinstance(entries, list):  # consumed: the caller's per-slice arrays are freed now
+            entries.clear()
         if len(rows) > 1 and np.any(rows[1:] < rows[:-1]):  # (slices come in point order)
             order = np.argsort(rows, kind="stable")
             rows, nodes, weights = rows[order], nodes[order], weights[order]

@@ -31,11 +31,11 @@ class BounceSystem:
         self.order = s.order
         self.pool = job._pool
         self.notes = []
-        seen = set()
+        seen, means = set(), {}  # notes said once; image means computed once per image
         plan_of = {plan.obj: plan for plan in job.plans}
         self.plan_offset = {}  # id(plan) -> its first node
         self.node_computations = []  # (first node, computation) of parts that are not baked
-        node_triangles, albedo, extra_parts = [], [], []
+        node_triangles, albedo, orientation, extra_parts = [], [], [], []
         offset = 0
         for index, ((owner, world, triangles), src) in enumerate(zip(parts, sources)):
             plan = plan_of.get(owner) if owner is not None else None
@@ -47,7 +47,10 @@ class BounceSystem:
                 corners, faces = corners[src.kept], faces[src.kept]
             local = _node_triangles(points, corners, mesh_read.read_corner_verts(src.mesh))
             node_triangles.append(local.astype(np.int64) + offset)
-            albedo.append(triangle_albedo(src.obj, src.mesh, faces, self.notes, seen))
+            albedo.append(triangle_albedo(src.obj, src.mesh, faces, self.notes, seen, means))
+            # A mirrored part (negative determinant) has its winding, hence its geometric
+            # normals, reversed in world space: flip them back so its front faces stay front.
+            orientation.append(np.full(len(faces), -1.0 if np.linalg.det(src.matrix[:3, :3]) < 0 else 1.0))
             if plan is not None:
                 self.plan_offset[id(plan)] = offset
             else:
@@ -65,6 +68,7 @@ class BounceSystem:
             albedo[:, :1] if grey else albedo,
             len(job.directions.directions),
             seed=s.seed,
+            orientation=np.concatenate(orientation) if orientation else None,
         )
         boxes = [raytrace.bounding_box(v) for _o, v, _t in parts]
         for index, first, points, world, tris, src in extra_parts:
@@ -108,16 +112,17 @@ class BounceSystem:
         direct = np.zeros((self.n_nodes, nn), dtype=np.float32)
         entries = []
         node_sources = [(self.plan_offset[id(p)], p.computation) for p in plans if id(p) in self.plan_offset]
-        for first, comp in node_sources + self.node_computations:
+        # In node order, so that the rows arrive sorted (no argsort of every entry).
+        for first, comp in sorted(node_sources + self.node_computations, key=lambda fc: fc[0]):
             direct[first : first + comp.total] = comp.coeffs
-            entries += [(rows + np.int32(first), nodes, w) for rows, nodes, w in comp.hits]
+            for rows, _nodes, _w in comp.hits:
+                rows += np.int32(first)  # (in place: the sink's arrays, no copy)
+            entries += comp.hits
             comp.hits = []
         matrix = bounce.Transport(entries, self.n_nodes, self.channels)
         del entries
         self._receivers = [p for p in plans if id(p) not in self.plan_offset]  # not in the scene
         extra = [bounce.Transport(p.computation.hits, p.computation.total, self.channels) for p in self._receivers]
-        for p in self._receivers:
-            p.computation.hits = []
         self.transport_bytes = matrix.nbytes + sum(r.nbytes for r in extra)
         self.passes = bounce.BouncePasses(direct, matrix, self.bounces, extra, self.pool)
         self._plans = plans
