@@ -189,7 +189,8 @@ def write(results, docs_dir):
     )
     a(
         f"- Lighting: Blender's bundled HDRIs {', '.join(cfg['hdris'])} (peaks below), projected by "
-        "`api.project_world` at each order."
+        "`api.project_world` at each order with `split_lights=False`: these sections measure the SH alone "
+        "(the light split has its own section)."
     )
     a(
         "- Error = **relative RMSE of luminance** over all vertices: sqrt(mean (Y - Y_ref)^2) / "
@@ -237,6 +238,7 @@ def write(results, docs_dir):
         + ".\n"
     )
     a("RECOMMENDATION_TEXT\n")
+    a("SPLIT_SECTION\n")  # accuracy_split_docs.section, once the hand-written notes are read
 
     # Cycles.
     a("## Cycles, the comparison curve\n")
@@ -498,6 +500,9 @@ def write(results, docs_dir):
                 notes[key] = []
             elif key:
                 notes[key].append(line)
+    import accuracy_split_docs
+
+    text = text.replace("SPLIT_SECTION\n", accuracy_split_docs.section(results, "\n".join(notes.get("SPLIT_TEXT", []))))
     for key in ("RECOMMENDATION_TEXT", "SETS_TEXT", "ESTIMATE_TEXT", "WINDOW_TEXT", "FLOAT32_TEXT"):
         text = text.replace(key + "\n", "\n".join(notes.get(key, [])).strip() + "\n")
     with open(os.path.join(docs_dir, "accuracy.md"), "w") as fh:

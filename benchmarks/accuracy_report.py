@@ -6,6 +6,11 @@ docs/images/accuracy_*.png; every number in them is measured by this command.
     .venv/bin/python benchmarks/accuracy_report.py --quick    # smoke run (few settings, ~2 min)
     .venv/bin/python benchmarks/accuracy_report.py --from-json benchmarks/accuracy_results.json
                                                               # rewrite the docs from saved numbers
+    .venv/bin/python benchmarks/accuracy_report.py --only-split   # re-measure the light split section
+
+The light split section (every bundled HDRI, with and without the split, against Cycles and a
+brute-force quadrature) is benchmarks/accuracy_split.py; its Cycles and brute-force references are
+cached in benchmarks/accuracy_references.json and reused while the scene and settings match.
 
 Scenes (object transforms are the identity, so the local and world frames agree):
   suzanne: Suzanne subdivided once (Subdivision level 1), smooth, standing on a ground grid;
@@ -60,6 +65,8 @@ QUICK = dict(
     all_hdris=["city", "forest", "sunrise"],
     cycles_ref=128,
     cycles_curve=[16],
+    split_hdris=["city", "sunrise"],
+    split_cycles=128,
     scenes=["suzanne"],
     caps_deg=[0.5, 5.0],
     caps_radiance=[1e4, 1e6],
@@ -227,7 +234,8 @@ def radiance(transfer, light):
 
 
 def scene_points(bpy, objs):
-    """World positions, normals, offsets and an Embree occluder of the whole scene."""
+    """World positions, normals, offsets, an Embree occluder and the triangles of the whole scene
+    (each object's points are its vertices: the report's meshes are smooth, one normal each)."""
     from prt_addon.blender.bake import settings as bake_settings
     from prt_addon.blender import mesh_read
     from prt_addon.core import mesh as core_mesh
@@ -252,16 +260,19 @@ def scene_points(bpy, objs):
         verts.append(v)
         tris.append(mesh_read.read_triangles(obj.data) + base)
         base += len(v)
-    occ = raytrace.EmbreeOccluder(np.concatenate(verts), np.concatenate(tris))
-    return np.concatenate(pos), np.concatenate(nrm), np.concatenate(off), occ
+    verts, tris = np.concatenate(verts), np.concatenate(tris)
+    occ = raytrace.EmbreeOccluder(verts, tris)
+    return np.concatenate(pos), np.concatenate(nrm), np.concatenate(off), occ, (verts, tris)
 
 
 def transfer_float64(points, order, samples):
+    """The bake's transfer in float64: the same rays (offset along the normal and into the point's
+    own surface, as api.bake does; the objects share no vertex, so one surface serves all)."""
     from prt_addon.core import directions, transfer
 
-    pos, nrm, off, occ = points
+    pos, nrm, off, occ, surface = points
     comp = transfer.TransferComputation(
-        pos, nrm, directions.make_directions("FIBONACCI", samples, 0), order, occ, offset=off
+        pos, nrm, directions.make_directions("FIBONACCI", samples, 0), order, occ, offset=off, surface=surface
     )
     comp.coeffs = np.zeros(comp.coeffs.shape, dtype=np.float64)  # keep the float64 sums
     return comp.run().coeffs
@@ -269,7 +280,7 @@ def transfer_float64(points, order, samples):
 
 def cap_truth(points, t0_conv, half_angle, value, k=400):
     """E/pi of background BACKGROUND + a cap of `value` around CAP_AXIS, by tracing the cap."""
-    pos, nrm, off, occ = points
+    pos, nrm, off, occ, _surface = points
     # k directions evenly spread over the cap (Fibonacci spiral in cos(theta), phi).
     i = np.arange(k) + 0.5
     z = 1.0 - (1.0 - math.cos(half_angle)) * i / k
@@ -329,8 +340,11 @@ def ringing_row(transfer, light, truth_y):
 # --- the run -----------------------------------------------------------------------------------
 
 
-def run(cfg):
+def run(cfg, cache, only_split=False):
+    """Every section's numbers; only_split measures the light split section alone."""
     import bpy
+
+    import accuracy_split
 
     import prt_addon
     from prt_addon import api
@@ -339,17 +353,18 @@ def run(cfg):
     prt_addon.register()
     results = {"config": cfg, "scenes": {}, "machine": os.uname().nodename, "started": time.ctime()}
     max_order = max(cfg["orders"])
-    for scene_name in cfg["scenes"]:
+    for scene_name in [] if only_split else cfg["scenes"]:
         objs = build_scene(bpy, scene_name)
         scene = bpy.context.scene
         nverts = [len(o.data.vertices) for o in objs]
         res = results["scenes"][scene_name] = {"vertices": nverts, "bakes": [], "cycles": {}, "lights": {}}
         log(scene_name, "vertices", nverts)
-        # Lighting per HDRI and order (projected through the add-on, as a user would).
+        # Lighting per HDRI and order (projected through the add-on, as a user would), SH only:
+        # these sections measure the SH itself (the light split has its own section).
         lights = {}
         for hdri in cfg["all_hdris"]:
             set_world(bpy, scene, hdri)
-            lights[hdri] = {n: api.project_world(scene, n) for n in cfg["orders"]}
+            lights[hdri] = {n: api.project_world(scene, n, split_lights=False) for n in cfg["orders"]}
         # Cycles reference and curve.
         truth = {}
         for hdri in cfg["hdris"]:
@@ -382,7 +397,7 @@ def run(cfg):
         log(scene_name, "converged bake", f"{sec:.1f}s")
         # Check: our radiance is what api.shade returns.
         set_world(bpy, scene, cfg["hdris"][0])
-        api.project_world(scene, max_order)
+        api.project_world(scene, max_order, split_lights=False)
         shade = np.concatenate([api.shade(o, scene) for o in objs])
         check = float(np.abs(shade - radiance(conv, lights[cfg["hdris"][0]][max_order])).max() / shade.max())
         res["shade_check"] = check
@@ -487,6 +502,7 @@ def run(cfg):
         rgb = px.reshape(-1, img.channels)[:, :3]
         peaks[h] = {"peak": float(np.nanmax(rgb)), "mean": float(np.nanmean(rgb @ LUMA.astype(np.float32)))}
     results["hdri_peaks"] = peaks
+    results["split"] = accuracy_split.run(bpy, cfg, cache, log)
     results["finished"] = time.ctime()
     return results
 
@@ -494,6 +510,8 @@ def run(cfg):
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--only-split", action="store_true", help="measure the light split section, keep the rest")
+    ap.add_argument("--references", default=os.path.join(ROOT, "benchmarks", "accuracy_references.json"))
     ap.add_argument("--from-json")
     ap.add_argument("--json", default=os.path.join(ROOT, "benchmarks", "accuracy_results.json"))
     ap.add_argument("--docs", default=os.path.join(ROOT, "docs"))
@@ -503,8 +521,16 @@ if __name__ == "__main__":
             results = json.load(f)
     else:
         t_start = time.perf_counter()
-        results = run(QUICK if args.quick else FULL)
-        results["wall_seconds"] = time.perf_counter() - t_start
+        cache = json.load(open(args.references)) if os.path.isfile(args.references) else {}
+        results = run(QUICK if args.quick else FULL, cache, args.only_split)
+        if args.only_split:  # the other sections from the saved run
+            with open(args.json) as f:
+                results = dict(json.load(f), split=results["split"])
+            results["split_seconds"] = time.perf_counter() - t_start
+        else:
+            results["wall_seconds"] = time.perf_counter() - t_start
+        with open(args.references, "w") as f:
+            json.dump(cache, f)
         with open(args.json, "w") as f:
             json.dump(results, f, indent=1)
         log("saved", args.json)
