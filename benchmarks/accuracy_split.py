@@ -28,6 +28,8 @@ PRT_SAMPLES = 2048  # Fibonacci directions of the order-8 bake (MC error far bel
 COARSE = (128, 256)  # (H, W) of the downsampled sky in the brute force
 COARSE_CHECK = (64, 128)  # a coarser sky: the difference measures the quadrature's own error
 BRIGHT = 4096  # texels with the most power (luminance x solid angle) traced at full resolution
+SWEEP_HDRIS = ["courtyard"]  # no compact source: what a lower threshold or more lights would give
+SWEEP = [(0.0, 4), (8.0, 4), (5.0, 4), (5.0, 8), (3.0, 4), (3.0, 8), (2.0, 8)]  # (threshold, max lights)
 PICTURE = ("suzanne", "sunrise")
 PICTURE_SIZE = (480, 300)
 
@@ -209,6 +211,9 @@ def run(bpy, cfg, cache, log):
                         "brute": rel_err(y, by),
                         "shade_seconds": time.perf_counter() - t1,
                     }
+            if hdri in SWEEP_HDRIS:
+                row["sweep"] = sweep(scene, objs, cy, by)
+            api.project_world(scene, max(ORDERS), split_lights=True)
             w = scene.prt_world
             row["lights"] = {
                 "count": int(w.light_count),
@@ -228,15 +233,35 @@ def run(bpy, cfg, cache, log):
     return out
 
 
+def sweep(scene, objs, cy, by):
+    """Errors at each (threshold, max lights) of SWEEP (threshold 0: automatic), both orders."""
+    from prt_addon import api
+
+    rows = []
+    for threshold, max_lights in SWEEP:
+        row = {"threshold": threshold, "max_lights": max_lights}
+        for n in ORDERS:
+            api.project_world(scene, n, split_lights=True, threshold=threshold, max_lights=max_lights)
+            y = np.concatenate([api.shade(o, scene) for o in objs]) @ LUMA
+            row[str(n)] = {"cycles": rel_err(y, cy), "brute": rel_err(y, by)}
+        row.update(count=int(scene.prt_world.light_count), share=float(scene.prt_world.light_share))
+        row["angles_deg"] = [math.degrees(lt["angle"]) for lt in api.world_lights(scene)]
+        rows.append(row)
+    return rows
+
+
 # --- pictures ----------------------------------------------------------------------------------
 
 
 def _camera(bpy, scene, sun):
-    """A camera 110 degrees round from the sun's azimuth (the shadow runs across the picture),
-    looking down at the shape's middle."""
+    """A camera 110 degrees round from the sun's azimuth (the shadow runs across the picture), on
+    the side nearer the shape's front (-Y), looking down at the shape's middle."""
     from mathutils import Vector
 
-    azimuth = math.atan2(sun[1], sun[0]) + math.radians(110.0) if sun is not None else math.radians(-70.0)
+    azimuth = math.radians(-70.0)
+    if sun is not None:
+        sides = [math.atan2(sun[1], sun[0]) + math.radians(a) for a in (110.0, -110.0)]
+        azimuth = max(sides, key=lambda a: -math.sin(a))  # the one nearer -Y
     eye = Vector((7.5 * math.cos(azimuth), 7.5 * math.sin(azimuth), 4.0))
     cam = bpy.data.objects.new("report_camera", bpy.data.cameras.new("report_camera"))
     scene.collection.objects.link(cam)

@@ -49,7 +49,10 @@ def section(results, text):
         f"{split['prt_samples']} Fibonacci directions; `api.shade` at orders 4 and 8 (order 4: the first "
         "16 coefficients of the same transfer), after `api.project_world(split_lights=False)` and "
         "`split_lights=True` (automatic threshold, at most 4 lights, 16 rays over each light's disc: "
-        "[lights.md](lights.md)). Error: relative RMSE of luminance over all vertices, as above.\n"
+        "[lights.md](lights.md)). Error: relative RMSE of luminance over all vertices, as above. "
+        "`accuracy_report.py --only-split` measures this section alone; the Cycles and brute-force "
+        "references are cached in `benchmarks/accuracy_references.json` and reused while the scenes "
+        "and settings match.\n"
     )
     a(
         f"- **Cycles**: `DIFFUSE` bake, `pass_filter={{'DIRECT'}}`, {split['cycles_samples']} samples, the "
@@ -110,6 +113,22 @@ def section(results, text):
             header += [f"o{n} no split, %", f"o{n} split, %", f"o{n} split vs BF, %", f"o{n} met"]
         a(f"**{scene}** ({sum(res['vertices'])} vertices), error against Cycles unless said:\n")
         a(table(header, rows) + "\n")
+    for scene, res in split["scenes"].items():
+        for hdri, row in res["rows"].items():
+            if not row.get("sweep"):
+                continue
+            cells = []
+            for r in row["sweep"]:
+                t = "automatic" if r["threshold"] == 0 else f"{r['threshold']:g}"
+                wide = f"{max(r['angles_deg']):.0f}" if r["angles_deg"] else "-"
+                errors = [f"{pct(r[str(n)]['cycles'])} / {pct(r[str(n)]['brute'])}" for n in split["orders"]]
+                cells.append([t, r["max_lights"], r["count"], pct(r["share"], 0), wide, *errors])
+            a(
+                f"**{scene} / {hdri}: other thresholds and light counts** (error against Cycles / against the "
+                "brute force, %; widest light's radius in degrees):\n"
+            )
+            header = ["threshold", "max lights", "lights", "share, %", "widest, deg"]
+            a(table(header + [f"order {n}" for n in split["orders"]], cells) + "\n")
     met, total, misses = summary(split)
     a(
         f"Targets met: **{met} of {total}** (scene x HDRI x order)"
