@@ -32,6 +32,7 @@ SWEEP_HDRIS = ["courtyard"]  # no compact source: what a lower threshold or more
 SWEEP = [(0.0, 4), (8.0, 4), (5.0, 4), (5.0, 8), (3.0, 4), (3.0, 8), (2.0, 8)]  # (threshold, max lights)
 PICTURE = ("suzanne", "sunrise")
 PICTURE_SIZE = (480, 300)
+IMAGES_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs", "images")  # --docs
 
 
 def rel_err(y, ref):
@@ -157,14 +158,14 @@ def brute_force(points, nodes, chunk=48):
 
 def run(bpy, cfg, cache, log):
     """Measure the split section; cache holds packed references of an earlier run (updated)."""
-    import accuracy_report as rep
+    import accuracy_scenes as acc_scenes
 
     from prt_addon import api
 
     out = {"hdris": cfg.get("split_hdris", HDRIS), "orders": ORDERS, "cycles_samples": cfg.get("split_cycles", CYCLES)}
     out.update(prt_samples=PRT_SAMPLES, coarse=COARSE, coarse_check=COARSE_CHECK, bright=BRIGHT, scenes={})
     for scene_name in cfg["scenes"]:
-        objs = rep.build_scene(bpy, scene_name)
+        objs = acc_scenes.build_scene(bpy, scene_name)
         scene = bpy.context.scene
         nverts = [len(o.data.vertices) for o in objs]
         t0 = time.perf_counter()
@@ -172,11 +173,11 @@ def run(bpy, cfg, cache, log):
         res = out["scenes"][scene_name] = {"vertices": nverts, "bake_seconds": time.perf_counter() - t0, "rows": {}}
         points = ray_origins(bpy, objs)
         for hdri in out["hdris"]:
-            rep.set_world(bpy, scene, hdri)
+            acc_scenes.set_world(bpy, scene, hdri)
             row = res["rows"][hdri] = {}
             key = cache_key("cycles", scene_name, hdri, nverts, out["cycles_samples"])
             if key not in cache:
-                secs, ref = rep.cycles_bake(bpy, scene, objs, out["cycles_samples"], seed=1)
+                secs, ref = acc_scenes.cycles_bake(bpy, scene, objs, out["cycles_samples"], seed=1)
                 cache[key] = dict(pack(ref), seconds=secs)
             cyc = unpack(cache[key])
             row["cycles_seconds"] = cache[key]["seconds"]
@@ -325,8 +326,7 @@ def pictures(bpy, scene, objs, hdri, cache, nverts, samples):
     one rasteriser), and PRT with the split as the viewport draws it (api.render_view)."""
     from prt_addon import api
 
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    img_dir = os.path.join(root, "docs", "images")
+    img_dir = IMAGES_DIR
     rep_world = bpy.data.worlds[hdri]
     scene.world = rep_world
     api.project_world(scene, 8, split_lights=True)
