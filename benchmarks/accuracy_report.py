@@ -12,7 +12,8 @@ The light split section (every bundled HDRI, with and without the split, against
 brute-force quadrature) is benchmarks/accuracy_split.py; its Cycles and brute-force references are
 cached in benchmarks/accuracy_references.json and reused while the scene and settings match.
 
-Scenes (object transforms are the identity, so the local and world frames agree):
+Scenes (benchmarks/accuracy_scenes.py; object transforms are the identity, so the local and world
+frames agree):
   suzanne: Suzanne subdivided once (Subdivision level 1), smooth, standing on a ground grid;
   torus:   a smooth torus (R 1, r 0.4, 48 x 24) tilted 50 degrees, standing on the same grid.
 Error measure: relative RMSE of luminance Y = 0.2126 R + 0.7152 G + 0.0722 B over all vertices of
