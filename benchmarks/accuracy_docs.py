@@ -1,5 +1,7 @@
 """Tables, plots and text of docs/accuracy.md from the numbers of benchmarks/accuracy_report.py.
 
+The plots are accuracy_plots.py, the stiff-lighting and float32 sections accuracy_docs_stiff.py,
+the light split section accuracy_split_docs.py.
 Only the report command uses this (matplotlib is a development dependency, never the add-on's).
 """
 
@@ -8,10 +10,7 @@ import os
 
 import numpy as np
 
-from accuracy_report import WINDOWS  # the windows the report measures
-
-COLORS = {2: "tab:blue", 3: "tab:orange", 4: "tab:green", 6: "tab:red", 8: "tab:purple"}
-SET_STYLE = {"FIBONACCI": "-o", "STRATIFIED": "-s", "UNIFORM": "-^"}
+from accuracy_plots import plots
 
 
 def pct(x, digits=1):
@@ -31,77 +30,6 @@ def _first_reaching(rows, key, target):
         if all(key(q) <= target for q in rows[i:]):
             return r["seconds"], r["samples"]
     return None
-
-
-# --- plots ---------------------------------------------------------------------------------------
-
-
-def plots(results, img_dir):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    cfg = results["config"]
-    out = []
-    for scene, res in results["scenes"].items():
-        hdris = cfg["hdris"]
-        fig, axes = plt.subplots(2, len(hdris), figsize=(4.2 * len(hdris), 7.5), squeeze=False)
-        for j, h in enumerate(hdris):
-            for row, key, title in ((0, "total", "total error vs Cycles"), (1, "mc", "Monte-Carlo error")):
-                ax = axes[row, j]
-                for n in cfg["orders"]:
-                    rows = sorted(_rows(res, set="FIBONACCI", order=n), key=lambda r: r["samples"])
-                    ax.loglog(
-                        [r["seconds"] for r in rows],
-                        [100 * r[key][h] for r in rows],
-                        "-o",
-                        color=COLORS.get(n),
-                        ms=3,
-                        label=f"PRT order {n}",
-                    )
-                if row == 0:
-                    c = res["cycles"][h]["curve"]
-                    ax.loglog([x["seconds"] for x in c], [100 * x["error"] for x in c], "k--s", ms=4, label="Cycles")
-                    for x in c:
-                        ax.annotate(str(x["samples"]), (x["seconds"], 100 * x["error"]), fontsize=7)
-                ax.set_title(f"{scene} / {h}: {title}", fontsize=9)
-                ax.set_xlabel("seconds")
-                ax.set_ylabel("relative RMSE of luminance, %")
-                ax.grid(True, which="both", alpha=0.3)
-        axes[0, 0].legend(fontsize=7)
-        fig.suptitle("Fibonacci directions, 64 to 4096 samples per order (points left to right)", fontsize=9)
-        fig.tight_layout()
-        name = f"accuracy_{scene}.png"
-        fig.savefig(os.path.join(img_dir, name), dpi=90)
-        plt.close(fig)
-        out.append(name)
-    # Direction sets.
-    scenes = list(results["scenes"])
-    orders = [n for n in (4, 8) if n in cfg["orders"]] or cfg["orders"][-1:]
-    fig, axes = plt.subplots(len(orders), len(scenes), figsize=(4.5 * len(scenes), 3.8 * len(orders)), squeeze=False)
-    for i, n in enumerate(orders):
-        for j, scene in enumerate(scenes):
-            ax = axes[i, j]
-            for kind in cfg["sets"]:
-                rows = sorted(_rows(results["scenes"][scene], set=kind, order=n), key=lambda r: r["samples"])
-                ax.loglog(
-                    [r["seconds"] for r in rows],
-                    [100 * r["transfer_rel_error"] for r in rows],
-                    SET_STYLE.get(kind, "-o"),
-                    ms=3,
-                    label=kind.lower(),
-                )
-            ax.set_title(f"{scene}, order {n}: transfer MC error", fontsize=9)
-            ax.set_xlabel("bake seconds")
-            ax.set_ylabel("RMS |t - t_conv| / RMS |t_conv|, %")
-            ax.grid(True, which="both", alpha=0.3)
-            ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(os.path.join(img_dir, "accuracy_sets.png"), dpi=90)
-    plt.close(fig)
-    out.append("accuracy_sets.png")
-    return out
 
 
 # --- markdown ------------------------------------------------------------------------------------
@@ -189,7 +117,8 @@ def write(results, docs_dir):
     )
     a(
         f"- Lighting: Blender's bundled HDRIs {', '.join(cfg['hdris'])} (peaks below), projected by "
-        "`api.project_world` at each order."
+        "`api.project_world` at each order with `split_lights=False`: these sections measure the SH alone "
+        "(the light split has its own section)."
     )
     a(
         "- Error = **relative RMSE of luminance** over all vertices: sqrt(mean (Y - Y_ref)^2) / "
@@ -237,6 +166,7 @@ def write(results, docs_dir):
         + ".\n"
     )
     a("RECOMMENDATION_TEXT\n")
+    a("SPLIT_SECTION\n")  # accuracy_split_docs.section, once the hand-written notes are read
 
     # Cycles.
     a("## Cycles, the comparison curve\n")
@@ -368,125 +298,9 @@ def write(results, docs_dir):
         a(table(["scene", "order", *[str(k) for k in cfg["samples"]]], rows) + "\n")
     a("ESTIMATE_TEXT\n")
 
-    # Stiff.
-    a("## Stiff lighting: ringing and windows\n")
-    a(
-        "Shaded radiance sum_i L_i t_i with the **converged** transfer (so only the lighting's band limit and "
-        "the window matter), lighting windowed by each window of `benchmarks/windows.py`: `HANNING` and `LANCZOS` at "
-        "their default width (the order), `AUTO_LAPLACIAN` and `AUTO_HANNING` the weakest window making the "
-        "lighting non-negative on the sphere (`auto_window`). Columns: fraction of vertices with a negative "
-        "channel before clamping, the minimum radiance over vertices and channels divided by the mean truth "
-        "luminance, and the total error of the clamped luminance (the display clamps at 0). Truth: Cycles "
-        f"({cfg['cycles_ref']} samples) for the HDRIs; for the synthetic caps (a sun disk of angular radius "
-        "0.5 to 5 degrees and radiance 1e4 to 1e6 on a uniform background of 1, 35 degrees above the "
-        "horizon) the cap is traced exactly (400 rays per vertex into the cap) and the background is the "
-        "converged t_0. HDRIs without a Cycles truth show ringing only.\n"
-    )
-    # Summary over all cases and orders, per window.
-    rows = []
-    for w in WINDOWS:
-        neg, mins, ratio, finite = [], [], [], True
-        for s, res in scenes.items():
-            by = {(r["case"], r["order"], r["window"]): r for r in res["stiff"]}
-            for (case, n, ww), r in by.items():
-                if ww != w:
-                    continue
-                neg.append(r["neg_fraction"])
-                mins.append(r["min_rel"])
-                finite &= r["finite"]
-                if "err_clamped" in r:
-                    ratio.append(r["err_clamped"] / by[(case, n, "NONE")]["err_clamped"])
-        rows.append(
-            [
-                w,
-                f"{pct(max(neg), 2)}",
-                f"{100 * min(mins):.2f} %",
-                f"{np.median(ratio):.2f}",
-                f"{min(ratio):.2f} - {max(ratio):.2f}",
-                "yes" if finite else "NO",
-            ]
-        )
-    gain = [
-        (r["err_clamped"] - r["err_unclamped"]) / r["err_unclamped"]
-        for res in scenes.values()
-        for r in res["stiff"]
-        if r["window"] == "NONE" and "err_clamped" in r
-    ]
-    a(
-        f"Clamping at 0 (no window) changes the error by {100 * min(gain):+.1f} % to {100 * max(gain):+.1f} % "
-        "(relative) against the unclamped radiance: it never makes it worse, since the truth is >= 0.\n"
-    )
-    a("Summary over every case, order and scene:\n")
-    a(
-        table(
-            [
-                "window",
-                "max negative fraction, %",
-                "lowest min / mean",
-                "median error ratio to NONE",
-                "error ratio range",
-                "all finite",
-            ],
-            rows,
-        )
-        + "\n"
-    )
-    s0 = next(iter(scenes))
-    for n in [n for n in (4, 8) if n in cfg["orders"]]:
-        rows = []
-        cases = []
-        for r in scenes[s0]["stiff"]:
-            if r["case"] not in cases:
-                cases.append(r["case"])
-        for case in cases:
-            cells = [case]
-            for w in WINDOWS:
-                r = next(r for r in scenes[s0]["stiff"] if r["case"] == case and r["order"] == n and r["window"] == w)
-                err = f"{pct(r['err_clamped'])}" if "err_clamped" in r else "-"
-                cells.append(f"{pct(r['neg_fraction'], 1)} / {100 * r['min_rel']:.1f} / {err}")
-            rows.append(cells)
-        a(f"**{s0}, order {n}**: negative vertices % / min over mean % / error %\n")
-        a(table(["case", *WINDOWS], rows) + "\n")
-    a("WINDOW_TEXT\n")
+    import accuracy_docs_stiff  # (imports pct and table from here)
 
-    # Float32.
-    a("## Float32 storage\n")
-    rows = []
-    for s, res in scenes.items():
-        f = res["float32"]
-        worst = max(r["f32_error"] for r in f["rows"])
-        mc = min(r["mc_error"] for r in f["rows"])
-        rows.append(
-            [
-                s,
-                f["samples"],
-                f"{f['coeff_rel']:.1e}",
-                f"{f['stored_vs_float64']:.1e}",
-                f"{worst:.1e}",
-                f"{mc:.1e}",
-                f"{mc / worst:.0e}",
-            ]
-        )
-    a(
-        "The same bake computed in float64 (the sums are float64) and rounded to float32 (what the "
-        "`FLOAT_COLOR` attributes hold), order " + str(max(cfg["orders"])) + ", Fibonacci:\n"
-    )
-    a(
-        table(
-            [
-                "scene",
-                "samples",
-                "max coefficient rounding / max |t|",
-                "stored bake vs float64 / max |t|",
-                "worst shading error (any HDRI, order)",
-                "smallest MC error at those samples",
-                "ratio",
-            ],
-            rows,
-        )
-        + "\n"
-    )
-    a("FLOAT32_TEXT\n")
+    accuracy_docs_stiff.stiff_and_float32(a, results)
     text = "\n".join(L)
     extra = os.path.join(os.path.dirname(os.path.abspath(__file__)), "accuracy_text.md")
     notes = {}
@@ -498,6 +312,9 @@ def write(results, docs_dir):
                 notes[key] = []
             elif key:
                 notes[key].append(line)
+    import accuracy_split_docs
+
+    text = text.replace("SPLIT_SECTION\n", accuracy_split_docs.section(results, "\n".join(notes.get("SPLIT_TEXT", []))))
     for key in ("RECOMMENDATION_TEXT", "SETS_TEXT", "ESTIMATE_TEXT", "WINDOW_TEXT", "FLOAT32_TEXT"):
         text = text.replace(key + "\n", "\n".join(notes.get(key, [])).strip() + "\n")
     with open(os.path.join(docs_dir, "accuracy.md"), "w") as fh:

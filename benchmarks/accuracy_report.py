@@ -6,8 +6,14 @@ docs/images/accuracy_*.png; every number in them is measured by this command.
     .venv/bin/python benchmarks/accuracy_report.py --quick    # smoke run (few settings, ~2 min)
     .venv/bin/python benchmarks/accuracy_report.py --from-json benchmarks/accuracy_results.json
                                                               # rewrite the docs from saved numbers
+    .venv/bin/python benchmarks/accuracy_report.py --only-split   # re-measure the light split section
 
-Scenes (object transforms are the identity, so the local and world frames agree):
+The light split section (every bundled HDRI, with and without the split, against Cycles and a
+brute-force quadrature) is benchmarks/accuracy_split.py; its Cycles and brute-force references are
+cached in benchmarks/accuracy_references.json and reused while the scene and settings match.
+
+Scenes (benchmarks/accuracy_scenes.py; object transforms are the identity, so the local and world
+frames agree):
   suzanne: Suzanne subdivided once (Subdivision level 1), smooth, standing on a ground grid;
   torus:   a smooth torus (R 1, r 0.4, 48 x 24) tilted 50 degrees, standing on the same grid.
 Error measure: relative RMSE of luminance Y = 0.2126 R + 0.7152 G + 0.0722 B over all vertices of
@@ -36,6 +42,19 @@ import numpy as np  # noqa: E402
 
 from prt_addon.core.resample import LUMINANCE as LUMA  # noqa: E402
 
+from accuracy_scenes import (  # noqa: E402  (benchmarks/: the scenes and their references)
+    build_scene,
+    cap_truth,
+    cycles_bake,
+    prt_bake,
+    radiance,
+    scene_points,
+    set_world,
+    transfer_float64,
+    CAP_AXIS,
+    BACKGROUND,
+)
+
 FULL = dict(
     orders=[2, 3, 4, 6, 8],
     samples=[64, 128, 256, 512, 1024, 2048, 4096],
@@ -60,20 +79,14 @@ QUICK = dict(
     all_hdris=["city", "forest", "sunrise"],
     cycles_ref=128,
     cycles_curve=[16],
+    split_hdris=["city", "sunrise"],
+    split_cycles=128,
     scenes=["suzanne"],
     caps_deg=[0.5, 5.0],
     caps_radiance=[1e4, 1e6],
     f32_samples=256,
 )
 WINDOWS = ["NONE", "HANNING", "LANCZOS", "AUTO_LAPLACIAN", "AUTO_HANNING"]
-CAP_AXIS = np.array(
-    [
-        math.cos(math.radians(35)) * math.cos(math.radians(40)),
-        math.cos(math.radians(35)) * math.sin(math.radians(40)),
-        math.sin(math.radians(35)),
-    ]
-)
-BACKGROUND = 1.0
 
 
 def log(*args):
@@ -82,216 +95,6 @@ def log(*args):
 
 def rel_err(y, ref):
     return float(np.sqrt(np.mean((y - ref) ** 2)) / np.sqrt(np.mean(ref**2)))
-
-
-# --- scenes ------------------------------------------------------------------------------------
-
-
-def _material(bpy):
-    mat = bpy.data.materials.get("white") or bpy.data.materials.new("white")
-    return mat
-
-
-def _link(bpy, scene, name, mesh):
-    mesh.shade_smooth()
-    mesh.materials.append(_material(bpy))
-    obj = bpy.data.objects.new(name, mesh)
-    scene.collection.objects.link(obj)
-    return obj
-
-
-def _sit_on_ground(mesh):
-    from mathutils import Matrix
-
-    co = np.empty(len(mesh.vertices) * 3, np.float32)
-    mesh.vertices.foreach_get("co", co)
-    mesh.transform(Matrix.Translation((0.0, 0.0, -float(co.reshape(-1, 3)[:, 2].min()))))
-
-
-def build_scene(bpy, name):
-    """Empty file with the shape and the ground; returns [shape, ground]."""
-    import bmesh
-    from mathutils import Matrix
-
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    if name == "suzanne":
-        bm = bmesh.new()
-        bmesh.ops.create_monkey(bm)
-        base = bpy.data.meshes.new("suzanne0")
-        bm.to_mesh(base)
-        bm.free()
-        tmp = bpy.data.objects.new("tmp", base)
-        scene.collection.objects.link(tmp)
-        tmp.modifiers.new("subdiv", "SUBSURF").levels = 1
-        dg = bpy.context.evaluated_depsgraph_get()
-        mesh = bpy.data.meshes.new_from_object(tmp.evaluated_get(dg))
-        bpy.data.objects.remove(tmp)
-    elif name == "torus":
-        big, small, nu, nv = 1.0, 0.4, 48, 24
-        u = np.arange(nu) * 2 * np.pi / nu
-        v = np.arange(nv) * 2 * np.pi / nv
-        uu, vv = np.meshgrid(u, v, indexing="ij")
-        verts = np.stack(
-            [(big + small * np.cos(vv)) * np.cos(uu), (big + small * np.cos(vv)) * np.sin(uu), small * np.sin(vv)], -1
-        ).reshape(-1, 3)
-        faces = []
-        for i in range(nu):
-            for j in range(nv):
-                a, b = i * nv + j, ((i + 1) % nu) * nv + j
-                c, d = ((i + 1) % nu) * nv + (j + 1) % nv, i * nv + (j + 1) % nv
-                faces.append((a, b, c, d))
-        mesh = bpy.data.meshes.new("torus")
-        mesh.from_pydata(verts.tolist(), [], faces)
-        mesh.transform(Matrix.Rotation(math.radians(50.0), 4, "X"))
-    else:
-        raise ValueError(name)
-    _sit_on_ground(mesh)
-    shape = _link(bpy, scene, name, mesh)
-    bm = bmesh.new()
-    bmesh.ops.create_grid(bm, x_segments=32, y_segments=32, size=4.0)
-    gmesh = bpy.data.meshes.new("ground")
-    bm.to_mesh(gmesh)
-    bm.free()
-    ground = _link(bpy, scene, "ground", gmesh)
-    for obj in (shape, ground):
-        obj.select_set(True)
-        attr = obj.data.color_attributes.new("cycles_bake", "FLOAT_COLOR", "POINT")
-        obj.data.color_attributes.active_color = obj.data.color_attributes[attr.name]
-    bpy.context.view_layer.objects.active = shape
-    return [shape, ground]
-
-
-def set_world(bpy, scene, name):
-    world = bpy.data.worlds.get(name)
-    if world is None:
-        folder = bpy.utils.system_resource("DATAFILES", path="studiolights/world")
-        world = bpy.data.worlds.new(name)
-        tree = world.node_tree
-        env = tree.nodes.new("ShaderNodeTexEnvironment")
-        env.image = bpy.data.images.load(os.path.join(folder, f"{name}.exr"))
-        tree.links.new(env.outputs["Color"], tree.nodes["Background"].inputs["Color"])
-    scene.world = world
-    return world
-
-
-def read_cycles(objs):
-    out = []
-    for obj in objs:
-        mesh = obj.data
-        buf = np.empty(len(mesh.vertices) * 4, np.float32)
-        mesh.color_attributes["cycles_bake"].data.foreach_get("color", buf)
-        out.append(buf.reshape(-1, 4)[:, :3].astype(np.float64))
-    return np.concatenate(out)
-
-
-def cycles_bake(bpy, scene, objs, samples, seed):
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = samples
-    scene.cycles.seed = seed
-    for obj in objs:
-        obj.data.color_attributes.active_color = obj.data.color_attributes["cycles_bake"]
-    t0 = time.perf_counter()
-    bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT"}, target="VERTEX_COLORS", use_clear=True)
-    return time.perf_counter() - t0, read_cycles(objs)
-
-
-def read_prt(objs):
-    from prt_addon.blender import storage
-    from prt_addon.blender.display import gpu_cache
-
-    out = []
-    for obj in objs:
-        info, problem = storage.usable_bake(obj.data)
-        assert info is not None and info.domain == "POINT", problem
-        out.append(gpu_cache.read_transfer(obj.data, info)[:, : info.order**2])
-    return np.concatenate(out)
-
-
-def prt_bake(objs, order, samples, kind):
-    from prt_addon import api
-
-    t0 = time.perf_counter()
-    report = api.bake(objs, order=order, samples=samples, direction_set=kind, seed=0)
-    seconds = time.perf_counter() - t0
-    return seconds, report, read_prt(objs)
-
-
-def radiance(transfer, light):
-    n2 = light.shape[0]
-    return np.maximum(transfer[:, :n2].astype(np.float64) @ light, 0.0)
-
-
-# --- float64 transfer (bypassing the float32 storage) ------------------------------------------
-
-
-def scene_points(bpy, objs):
-    """World positions, normals, offsets and an Embree occluder of the whole scene."""
-    from prt_addon.blender.bake import settings as bake_settings
-    from prt_addon.blender import mesh_read
-    from prt_addon.core import mesh as core_mesh
-    from prt_addon.core import raytrace
-
-    pos, nrm, off, verts, tris = [], [], [], [], []
-    base = 0
-    for obj in objs:
-        m4 = core_mesh.matrix_to_numpy(obj.matrix_world)
-        pts = mesh_read.bake_points(obj.data, m4)
-        pos.append(pts.positions)
-        nrm.append(pts.normals)
-        v = core_mesh.transform_points(m4, mesh_read.read_positions(obj.data))
-        box = raytrace.bounding_box(v)
-        diag = float(np.linalg.norm(box[1] - box[0]))
-        off.append(
-            np.full(
-                len(pts.positions),
-                max(bake_settings.OFFSET_REL * diag, bake_settings.OFFSET_ULP * float(np.abs(v).max())),
-            )
-        )
-        verts.append(v)
-        tris.append(mesh_read.read_triangles(obj.data) + base)
-        base += len(v)
-    occ = raytrace.EmbreeOccluder(np.concatenate(verts), np.concatenate(tris))
-    return np.concatenate(pos), np.concatenate(nrm), np.concatenate(off), occ
-
-
-def transfer_float64(points, order, samples):
-    from prt_addon.core import directions, transfer
-
-    pos, nrm, off, occ = points
-    comp = transfer.TransferComputation(
-        pos, nrm, directions.make_directions("FIBONACCI", samples, 0), order, occ, offset=off
-    )
-    comp.coeffs = np.zeros(comp.coeffs.shape, dtype=np.float64)  # keep the float64 sums
-    return comp.run().coeffs
-
-
-def cap_truth(points, t0_conv, half_angle, value, k=400):
-    """E/pi of background BACKGROUND + a cap of `value` around CAP_AXIS, by tracing the cap."""
-    pos, nrm, off, occ = points
-    # k directions evenly spread over the cap (Fibonacci spiral in cos(theta), phi).
-    i = np.arange(k) + 0.5
-    z = 1.0 - (1.0 - math.cos(half_angle)) * i / k
-    phi = i * math.pi * (3.0 - math.sqrt(5.0))
-    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
-    local = np.stack([r * np.cos(phi), r * np.sin(phi), z], -1)
-    a = CAP_AXIS / np.linalg.norm(CAP_AXIS)
-    t = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
-    t /= np.linalg.norm(t)
-    b = np.cross(a, t)
-    dirs = local @ np.stack([t, b, a])
-    solid = 2 * math.pi * (1.0 - math.cos(half_angle))
-    out = np.empty(len(pos))
-    origins = (pos + off[:, None] * nrm).astype(np.float32)
-    d32 = dirs.astype(np.float32)
-    for s in range(0, len(pos), 256):
-        o = np.repeat(origins[s : s + 256], k, axis=0)
-        d = np.tile(d32, (len(o) // k, 1))
-        free = ~occ.occluded(o, d).reshape(-1, k)
-        cos = np.maximum(nrm[s : s + 256] @ dirs.T, 0.0)
-        out[s : s + 256] = value * solid / k * np.sum(cos * free, axis=1) / math.pi
-    return out + BACKGROUND * math.sqrt(4 * math.pi) * t0_conv
 
 
 # --- windows -----------------------------------------------------------------------------------
@@ -329,8 +132,11 @@ def ringing_row(transfer, light, truth_y):
 # --- the run -----------------------------------------------------------------------------------
 
 
-def run(cfg):
+def run(cfg, cache, only_split=False):
+    """Every section's numbers; only_split measures the light split section alone."""
     import bpy
+
+    import accuracy_split
 
     import prt_addon
     from prt_addon import api
@@ -339,17 +145,18 @@ def run(cfg):
     prt_addon.register()
     results = {"config": cfg, "scenes": {}, "machine": os.uname().nodename, "started": time.ctime()}
     max_order = max(cfg["orders"])
-    for scene_name in cfg["scenes"]:
+    for scene_name in [] if only_split else cfg["scenes"]:
         objs = build_scene(bpy, scene_name)
         scene = bpy.context.scene
         nverts = [len(o.data.vertices) for o in objs]
         res = results["scenes"][scene_name] = {"vertices": nverts, "bakes": [], "cycles": {}, "lights": {}}
         log(scene_name, "vertices", nverts)
-        # Lighting per HDRI and order (projected through the add-on, as a user would).
+        # Lighting per HDRI and order (projected through the add-on, as a user would), SH only:
+        # these sections measure the SH itself (the light split has its own section).
         lights = {}
         for hdri in cfg["all_hdris"]:
             set_world(bpy, scene, hdri)
-            lights[hdri] = {n: api.project_world(scene, n) for n in cfg["orders"]}
+            lights[hdri] = {n: api.project_world(scene, n, split_lights=False) for n in cfg["orders"]}
         # Cycles reference and curve.
         truth = {}
         for hdri in cfg["hdris"]:
@@ -382,7 +189,7 @@ def run(cfg):
         log(scene_name, "converged bake", f"{sec:.1f}s")
         # Check: our radiance is what api.shade returns.
         set_world(bpy, scene, cfg["hdris"][0])
-        api.project_world(scene, max_order)
+        api.project_world(scene, max_order, split_lights=False)
         shade = np.concatenate([api.shade(o, scene) for o in objs])
         check = float(np.abs(shade - radiance(conv, lights[cfg["hdris"][0]][max_order])).max() / shade.max())
         res["shade_check"] = check
@@ -487,6 +294,7 @@ def run(cfg):
         rgb = px.reshape(-1, img.channels)[:, :3]
         peaks[h] = {"peak": float(np.nanmax(rgb)), "mean": float(np.nanmean(rgb @ LUMA.astype(np.float32)))}
     results["hdri_peaks"] = peaks
+    results["split"] = accuracy_split.run(bpy, cfg, cache, log)
     results["finished"] = time.ctime()
     return results
 
@@ -494,6 +302,8 @@ def run(cfg):
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--only-split", action="store_true", help="measure the light split section, keep the rest")
+    ap.add_argument("--references", default=os.path.join(ROOT, "benchmarks", "accuracy_references.json"))
     ap.add_argument("--from-json")
     ap.add_argument("--json", default=os.path.join(ROOT, "benchmarks", "accuracy_results.json"))
     ap.add_argument("--docs", default=os.path.join(ROOT, "docs"))
@@ -503,8 +313,19 @@ if __name__ == "__main__":
             results = json.load(f)
     else:
         t_start = time.perf_counter()
-        results = run(QUICK if args.quick else FULL)
-        results["wall_seconds"] = time.perf_counter() - t_start
+        cache = json.load(open(args.references)) if os.path.isfile(args.references) else {}
+        import accuracy_split
+
+        accuracy_split.IMAGES_DIR = os.path.join(args.docs, "images")
+        results = run(QUICK if args.quick else FULL, cache, args.only_split)
+        if args.only_split:  # the other sections from the saved run
+            with open(args.json) as f:
+                results = dict(json.load(f), split=results["split"])
+            results["split_seconds"] = time.perf_counter() - t_start
+        else:
+            results["wall_seconds"] = time.perf_counter() - t_start
+        with open(args.references, "w") as f:
+            json.dump(cache, f)
         with open(args.json, "w") as f:
             json.dump(results, f, indent=1)
         log("saved", args.json)

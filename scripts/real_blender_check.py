@@ -3,11 +3,11 @@
     blender --factory-startup --enable-event-simulate --python real_blender_check.py -- ZIP RESULT_JSON
 
 Installs the extension zip as a user would, checks which Embree the shared-buffer path binds to (and that it
-answers as embreex's own copy does), then drives the real modal bake through Blender's event loop: a bake to
-the end, one undo and one redo, the display and its colours (real_blender_colour.py), then a long bake
-cancelled by a simulated Esc while this script's timers sample its progress. Writes what it saw and a verdict
-per check to RESULT_JSON."""
+answers as embreex's copy does), then drives the real modal bake through Blender's event loop: a bake, one undo
+and one redo, the display with its light directions and colours (real_blender_colour.py), a long bake cancelled
+by a simulated Esc while this script's timers sample its progress. Writes a verdict per check to RESULT_JSON."""
 
+import ctypes
 import json
 import os
 import sys
@@ -20,8 +20,7 @@ import bpy
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import real_blender_colour  # noqa: E402  (next to this file)
 
-# Every check, in the order printed. real_blender_check.sh reads this tuple from the source (it fills in the last
-# one from Blender's output) to fail all of them when there is no result; a failed set-up fails all of them too.
+# Every check, in order; real_blender_check.sh reads it from the source (all fail without a result or set-up).
 CHECKS = (
     "extension installed and enabled",
     "embreex imports",
@@ -34,6 +33,7 @@ CHECKS = (
     "the world projects and the display draws both baked objects",
     "the sidebar's PRT tab draws",
     "the overlay shows the view transform as Blender applies it",
+    "the light directions draw in the viewport and turn with the lighting",
     "progress advances between timer events (the UI runs)",
     "Esc cancels within 1 s",
     "a cancelled bake leaves the attributes as they were",
@@ -46,6 +46,10 @@ argv = sys.argv[sys.argv.index("--") + 1 :]
 ZIP, RESULT = argv[0], argv[1]
 MODULE = "bl_ext.user_default.prt_lighting"
 result = {"blender": bpy.app.version_string, "python": sys.version.split()[0], "log": []}
+
+
+class DlInfo(ctypes.Structure):  # dladdr's Dl_info
+    _fields_ = [(n, ctypes.c_char_p if "name" in n else ctypes.c_void_p) for n in ("fname", "fbase", "sname", "saddr")]
 
 
 class SetupError(Exception):
@@ -89,6 +93,10 @@ def mesh_prt_bytes(mesh_name):
     return out
 
 
+def light_directions():
+    return [light.direction.tolist() for light in mod("blender.display.lighting").world_lights(bpy.context.scene)]
+
+
 def bake_threads():
     return sorted(t.name for t in threading.enumerate() if t.name.startswith("prt-bake"))
 
@@ -102,16 +110,14 @@ def install():
     except ImportError as e:
         raise SetupError(f"Blender's Python has no numpy: {e}") from e
     try:
-        result["install"] = list(
-            bpy.ops.extensions.package_install_files(filepath=ZIP, repo="user_default", enable_on_install=True)
-        )
+        install_files = bpy.ops.extensions.package_install_files
+        result["install"] = list(install_files(filepath=ZIP, repo="user_default", enable_on_install=True))
     except Exception as e:  # noqa: BLE001  (an operator's error report arrives as RuntimeError)
         raise SetupError(f"installing {os.path.basename(ZIP)} failed: {e}".strip()) from e
     if result["install"] != ["FINISHED"]:
         raise SetupError(f"installing {os.path.basename(ZIP)} returned {result['install']}")
     if MODULE not in bpy.context.preferences.addons:
-        # Enabling once more, only to catch the error that the install's enabling printed.
-        import addon_utils
+        import addon_utils  # enabling once more, only to catch the error that the install's enabling printed
 
         errors = []
         addon_utils.enable(MODULE, default_set=True, handle_error=errors.append)
@@ -128,8 +134,7 @@ def setup():
     import numpy as np
 
     install()
-    raytrace = mod("core.raytrace")
-    buffers = mod("core.embree_buffers")
+    raytrace, buffers = mod("core.raytrace"), mod("core.embree_buffers")
     result["embree_available"] = bool(raytrace.EMBREE_AVAILABLE)
     result["embree_import_error"] = str(getattr(raytrace, "EMBREE_IMPORT_ERROR", ""))
     if raytrace.EMBREE_AVAILABLE:
@@ -143,29 +148,16 @@ def setup():
         rng = np.random.default_rng(0)
         v = rng.normal(size=(3000, 3)).astype(np.float32)
         t = rng.integers(0, 3000, size=(5000, 3)).astype(np.int32)
-        o = rng.normal(size=(20000, 3)).astype(np.float32)
-        d = rng.normal(size=(20000, 3)).astype(np.float32)
-        shared = raytrace.EmbreeOccluder(v, t, shared=True)
-        copied = raytrace.EmbreeOccluder(v, t, shared=False)
+        o, d = rng.normal(size=(2, 20000, 3)).astype(np.float32)
+        shared, copied = (raytrace.EmbreeOccluder(v, t, shared=s) for s in (True, False))
         result["geometry"] = [shared.geometry, copied.geometry]
         a, b = shared.occluded(o, d), copied.occluded(o, d)
         result["shared_vs_copied_equal"] = bool(np.array_equal(a, b))
-        import ctypes
-
         lib = buffers._bind(buffers._library_path())
         result["binding_origin"] = lib.origin
 
-        class DlInfo(ctypes.Structure):
-            _fields_ = [
-                ("fname", ctypes.c_char_p),
-                ("fbase", ctypes.c_void_p),
-                ("sname", ctypes.c_char_p),
-                ("saddr", ctypes.c_void_p),
-            ]
-
-        info = DlInfo()
         address = ctypes.cast(lib.rtcGetSceneDevice, ctypes.c_void_p).value
-        ctypes.CDLL(None).dladdr(ctypes.c_void_p(address), ctypes.byref(info))
+        ctypes.CDLL(None).dladdr(ctypes.c_void_p(address), ctypes.byref(info := DlInfo()))
         result["binding_library"] = info.fname.decode()
         result["occluded_fraction"] = float(a.mean())
 
@@ -234,6 +226,7 @@ def step():
         state["t"] = time.perf_counter()
         return 0.02
     bake_reports = mod("blender.bake.reports")
+    result["markers_drawn"] = state.get("markers", [])  # (phase, lights drawn) per viewport redraw
     if phase == "bake":
         job = running_job()
         if job is not None:
@@ -262,12 +255,14 @@ def step():
         with bpy.context.temp_override(**window_context()):
             result["project"] = list(bpy.ops.prt.project_world())
         bpy.context.scene.prt.show_display = True
+        bpy.context.scene.prt_display.show_light_directions = True  # forest.exr: 4 split lights
+        markers, drawn = mod("blender.display.light_markers"), state.setdefault("markers", [])
+        draw_markers = markers.draw_markers  # count what the viewport's handler draws, per phase
+        markers.draw_markers = lambda *a, **k: drawn.append((state["phase"], draw_markers(*a, **k))) or drawn[-1][1]
         area = window_context()["area"]
         area.spaces.active.show_region_ui = True  # the sidebar, on its "PRT" tab: draws our panels
         area.tag_redraw()
-        state["phase"] = "sidebar"
-        state["t"] = time.perf_counter()
-        state["tab_tries"] = 0
+        state.update(phase="sidebar", t=time.perf_counter(), tab_tries=0)
         return 0.3
     if phase == "sidebar":
         # active_panel_category is read-only in 4.3: click down the tab strip's right edge, 8 px at a time, to PRT.
@@ -292,10 +287,12 @@ def step():
         gpu_cache = mod("blender.display.gpu_cache")
         result["display_handler"] = display_draw.draw_handle() is not None
         result["display_meshes_drawn"] = len(gpu_cache._mesh_cache)
+        result["light_directions"] = [light_directions()]
         with bpy.context.temp_override(**window_context()):
             result["rotate"] = list(bpy.ops.prt.set_light_rotation(rotation=(0.0, 0.0, 2.0)))
         real_blender_colour.prepare(window_context())  # (no outline over the compared pixels)
         result["rotated_at"] = time.time()
+        result["light_directions"].append(light_directions())
         state["phase"] = "colour"
         state["t"] = time.perf_counter()
         return 1.5
@@ -351,6 +348,9 @@ def verdict():
     r = result
     bake_attrs = {k for mesh in r.get("after_bake", {}).values() for k in mesh if k != "record"}
     long_samples = r.get("progress_samples_long_bake", [])
+    drawn = {phase for phase, lights in r.get("markers_drawn", []) if lights}  # phases with markers drawn
+    markers_turn = bool(drawn & {"sidebar", "display"} and drawn & {"long", "cancel"})  # before, after the turn
+    markers_turn = markers_turn and len(set(map(str, r.get("light_directions", [])))) == 2
     checks = {
         "extension installed and enabled": r.get("install") == ["FINISHED"] and bool(r.get("enabled")),
         "embreex imports": bool(r.get("embree_available")),
@@ -373,6 +373,7 @@ def verdict():
         and r.get("rotate") == ["FINISHED"],
         "the sidebar's PRT tab draws": r.get("sidebar_tab") == "PRT",
         real_blender_colour.CHECK: real_blender_colour.passed(r),
+        "the light directions draw in the viewport and turn with the lighting": markers_turn,
         "progress advances between timer events (the UI runs)": len(long_samples) >= 3
         and all(a < b for a, b in zip(long_samples, long_samples[1:])),
         "Esc cancels within 1 s": bool(r.get("cancel_report", {}).get("cancelled"))

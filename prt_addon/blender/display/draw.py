@@ -14,6 +14,7 @@ import numpy as np
 
 from .. import storage
 from . import colour
+from . import light_markers
 from .albedo import _slot_tints, display_settings, material_colour
 from .gpu_cache import ObjectState, _object_cache, _prune, clear_caches, get_mesh_entry
 from .lighting import bounce_light_extra, exposure_scale, light_in_local_frame, world_light, world_lights
@@ -165,6 +166,7 @@ def add_draw_handler():
     global _draw_handle
     if _draw_handle is None:
         _draw_handle = bpy.types.SpaceView3D.draw_handler_add(_draw_callback, (), "WINDOW", "POST_VIEW")
+    light_markers.add_handler()  # after ours: the markers are drawn over the objects
     return _draw_handle
 
 
@@ -176,6 +178,7 @@ def remove_draw_handler():
         except ValueError:
             pass
         _draw_handle = None
+    light_markers.remove_handler()
     clear_caches()
 
 

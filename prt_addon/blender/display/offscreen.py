@@ -2,11 +2,11 @@
 
 `render_view` draws the same batches with the same shader and light buffers as the viewport draw
 handler (draw_objects), into an RGBA32F GPUOffScreen with its own depth buffer. It draws
-baked objects only; the background is transparent (alpha 0). The result is linear scene radiance
-times albedo (no exposure, no view transform), row 0 at the top of the picture; or, with
-display=True, the display-referred image the viewport overlay shows: exposure, the scene's display
-transform in the shader (colour.py), and the way Blender turns overlay values into display code
-values (colour.encode_display).
+baked objects only (and the light markers when Display > Light Directions is on); the background
+is transparent (alpha 0). The result is linear scene radiance times albedo (no exposure, no view
+transform), row 0 at the top of the picture; or, with display=True, the display-referred image the
+viewport overlay shows: exposure, the scene's display transform in the shader (colour.py), and the
+way Blender turns overlay values into display code values (colour.encode_display).
 """
 
 import bpy
@@ -15,6 +15,7 @@ import numpy as np
 
 from ..world import nodes
 from . import colour
+from . import light_markers
 from .draw import baked_objects, draw_objects
 from .lighting import exposure_scale
 
@@ -108,6 +109,8 @@ def render_view(scene=None, width=None, height=None, camera=None, objects=None, 
                 draw_objects(scene, projection @ view, objects, scale=scale, depsgraph=depsgraph, display_lut=lut)
             finally:
                 gpu.state.depth_test_set("NONE")
+            if light_markers.enabled(scene):
+                light_markers.draw_markers(scene, view, projection, (width, height))
             buf = fb.read_color(0, 0, width, height, 4, 0, "FLOAT")
             # The buffer's numpy view has reversed strides: transpose, then reshape.
             image = np.asarray(buf).T.reshape(height, width, 4).copy()

@@ -77,6 +77,9 @@ class VIEW3D_PT_prt_display(PRTSubPanel, bpy.types.Panel):
         layout.prop(settings, "albedo_source")
         if settings.albedo_source == "ATTRIBUTE":
             layout.prop(settings, "albedo_attribute")
+        row = layout.row()
+        row.active = bool(lighting.world_lights(scene))  # greyed out while there is no split light
+        row.prop(settings, "show_light_directions")
         if lighting.world_light(scene) is None:
             wrapped_label(layout, context, "No world lighting yet: press Project World", icon="ERROR")
         obj = context.active_object

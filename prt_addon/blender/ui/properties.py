@@ -182,6 +182,12 @@ class PRT_PG_display(bpy.types.PropertyGroup):
         description="Colour attribute used as albedo (empty: the mesh's active colour attribute)",
         default="",
     )
+    show_light_directions: bpy.props.BoolProperty(
+        name="Light Directions",
+        description="Draw a line from the 3D cursor toward each light split off the world, in the light's "
+        "colour, with a circle of its angular size at the tip; it turns with the Lighting Rotation",
+        default=False,
+    )
 
 
 CLASSES = [PRT_PG_scene, PRT_PG_world, PRT_PG_bake_settings, PRT_PG_display]
