@@ -20,6 +20,7 @@ SUPPORTED_LIMIT = 2.0  # mean |difference| in 1/255 over the drawn pixels
 APPROXIMATE = ("False Color",)  # bands: a table blurs their edges (docs/display.md)
 SIZE = (320, 240)
 _selected = []  # names of the objects selected before prepare(), selected again after run()
+_markers = []  # whether the light markers were on before prepare(), restored at the end
 
 
 def _read_png(path, drop=True):
@@ -189,8 +190,12 @@ def side_by_side(out, mod, folder):
 
 
 def prepare(ctx):
-    """Nothing selected, no object outlines: the compared pixels are the overlay's alone."""
+    """Nothing selected, no object outlines, no light markers: the compared pixels are the
+    overlay's shading alone (the markers are lines in the lights' colours, not radiance)."""
     _selected[:] = [obj.name for obj in bpy.context.scene.objects if obj.select_get()]
+    display = bpy.context.scene.prt_display
+    _markers[:] = [display.show_light_directions]
+    display.show_light_directions = False
     for obj in bpy.context.scene.objects:
         obj.select_set(False)
     ctx["area"].spaces.active.shading.show_object_outline = False
@@ -224,6 +229,7 @@ def step(result, mod, ctx):
     scene.view_settings.view_transform = "AgX"
     for name in _selected:  # (the long bake that follows bakes the selection)
         bpy.context.scene.objects[name].select_set(True)
+    scene.prt_display.show_light_directions = bool(_markers and _markers[0])
     return None
 
 
