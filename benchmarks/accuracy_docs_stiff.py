@@ -14,7 +14,7 @@ def stiff_and_float32(a, results):
     a("## Stiff lighting: ringing and windows\n")
     a(
         "Shaded radiance sum_i L_i t_i with the **converged** transfer (so only the lighting's band limit and "
-        "the window matter), lighting windowed by each window of `benchmarks/windows.py`: `HANNING` and `LANCZOS` at "
+        "the window matter), lighting windowed by each window of `benchmarks/windows/`: `HANNING` and `LANCZOS` at "
         "their default width (the order), `AUTO_LAPLACIAN` and `AUTO_HANNING` the weakest window making the "
         "lighting non-negative on the sphere (`auto_window`). Columns: fraction of vertices with a negative "
         "channel before clamping, the minimum radiance over vertices and channels divided by the mean truth "
