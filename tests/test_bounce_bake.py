@@ -338,3 +338,17 @@ def test_an_emission_shader_reflects_nothing(bpy_module, empty_scene):
     report = api.bake(objs, order=2, samples=128, bounces=1)
     assert any("Emission shader reflects nothing" in note for note in report.albedo_notes)
     assert tint() < 1.05
+
+
+def test_the_panel_bounces_are_used_only_with_scene_shadows(bpy_module, empty_scene):
+    """The Bounces row is greyed out without scene shadows; the operator then bakes direct light
+    (as Blender ignores an inactive setting) instead of refusing."""
+    from prt_addon.blender.ops.bake import settings_from
+
+    group = empty_scene.prt_bake
+    group.bounces = 3
+    assert settings_from(group).validate().bounces == 3
+    group.shadows = False
+    assert settings_from(group).validate().bounces == 0
+    group.shadows, group.self_shadow_only = True, True
+    assert settings_from(group).validate().bounces == 0

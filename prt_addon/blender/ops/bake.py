@@ -20,7 +20,8 @@ def settings_from(group):
         group.shadows,
         group.self_shadow_only,
         group.backend,
-        bounces=group.bounces,
+        # (greyed out in the panel without scene shadows: not used then, as Blender does)
+        bounces=group.bounces if group.shadows and not group.self_shadow_only else 0,
     )
 
 
