@@ -130,17 +130,26 @@ class Transport:
         self.slices = []  # (row ids (S,), nodes (S, K) int32, weights (S, K, C) float32)
         if not parts:
             return
-        rows = np.concatenate([p[0] for p in parts])
-        nodes = np.concatenate([p[1] for p in parts])
-        weights = np.concatenate([p[2] for p in parts])
-        del parts
+        in_order = all(len(p[0]) < 2 or not np.any(p[0][1:] < p[0][:-1]) for p in parts)
+        in_order = in_order and all(a[0][-1] <= b[0][0] for a, b in zip(parts, parts[1:]))
+        if in_order:  # (the usual case: slices in point order) the rows as counts, not a copy
+            counts = np.zeros(self.n_rows, dtype=np.int64)
+            for p in parts:
+                ids, per_row = np.unique(p[0], return_counts=True)
+                counts[ids] += per_row
+            parts = [(None, p[1], p[2]) for p in parts]
         if isinstance(entries, list):  # consumed: the caller's per-slice arrays are freed now
             entries.clear()
-        if len(rows) > 1 and np.any(rows[1:] < rows[:-1]):  # (slices come in point order)
+        nodes = np.concatenate([p[1] for p in parts])
+        weights = np.concatenate([p[2] for p in parts])
+        if not in_order:
+            rows = np.concatenate([p[0] for p in parts])
             order = np.argsort(rows, kind="stable")
             rows, nodes, weights = rows[order], nodes[order], weights[order]
-        self.entries = len(rows)
-        counts = np.bincount(rows, minlength=self.n_rows)
+            counts = np.bincount(rows, minlength=self.n_rows)
+            del rows
+        del parts
+        self.entries = len(nodes)
         first = np.cumsum(counts) - counts  # each row's first entry
         by_length = np.argsort(-counts, kind="stable")
         by_length = by_length[counts[by_length] > 0]
