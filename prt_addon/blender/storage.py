@@ -123,9 +123,7 @@ def write_transfer(mesh, values, domain, record, bounce=None):
     per_part = (values.shape[1] + 3) // 4
     parts = [values] if bounce is None else [values] + list(np.asarray(bounce, np.float32).transpose(1, 0, 2))
     count = per_part * len(parts)
-    packed = np.zeros((values.shape[0], count * 4), dtype=np.float32)
-    for p, part in enumerate(parts):
-        packed[:, 4 * per_part * p : 4 * per_part * p + values.shape[1]] = part
+    channel = np.zeros((values.shape[0], 4), dtype=np.float32)  # one attribute at a time (no packed copy)
     colors = mesh.color_attributes
     active, default = colors.active_color_name, colors.default_color_name
     for k in range(count):
@@ -135,8 +133,11 @@ def write_transfer(mesh, values, domain, record, bounce=None):
             _remove(mesh, name)
         if mesh.attributes.get(name) is None:
             mesh.color_attributes.new(name, "FLOAT_COLOR", domain)
-        channel = np.ascontiguousarray(packed[:, 4 * k : 4 * k + 4]).reshape(-1)
-        mesh.attributes[name].data.foreach_set("color", channel)
+        part, first = parts[k // per_part], 4 * (k % per_part)
+        width = min(4, values.shape[1] - first)
+        channel[:, :width] = part[:, first : first + width]
+        channel[:, width:] = 0.0
+        mesh.attributes[name].data.foreach_set("color", channel.reshape(-1))
     for name in transfer_attribute_names(mesh):
         if int(name[len(PREFIX) :]) >= count:
             _remove(mesh, name)

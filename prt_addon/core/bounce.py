@@ -16,9 +16,9 @@ so the entry is an unbiased estimate of the linear interpolation with one matrix
 The choice is a hash of (point, direction), so a bake does not depend on threads or slicing.
 A hit on a triangle's back face (the ray travels along its normal) reflects nothing.
 
-Memory: one entry per front-face hit, 8 + 4 C bytes while the shadow pass runs (row and node
-int32, C = 1 or 3 float32 weights, the hit surface's albedo per colour channel times
-4 / N max(0, n . w)), then 4 + 4 C bytes in the matrix (plus its padding).
+Memory: one entry per front-face hit, 4 + 4 C bytes while the shadow pass runs (node int32, C =
+1 or 3 float32 weights, the hit surface's albedo per colour channel times 4 / N max(0, n . w);
+the rows as runs, one per point and block), and the same in the matrix (plus its padding).
 """
 
 from __future__ import annotations
@@ -93,7 +93,8 @@ class HitTransport:
         bary_u: np.ndarray,
         bary_v: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(rows int32, nodes int32, weights (m, C) float32) of the hits: point `rows[j]` saw
+        """(rows, nodes int32, weights (m, C) float32) of the hits (rows as RowRuns, or an int32
+        array if they were not sorted): point `rows[j]` saw
         triangle `prims[j]` along `dirs[j]` at barycentrics (u, v), with max(0, n . w) `cosines[j]`."""
         prims = np.asarray(prims)
         n = np.take(self.normals, prims, axis=0)  # (take: 12-byte rows, ~3x faster than n[prims])
@@ -107,7 +108,38 @@ class HitTransport:
         kept = prims[keep]
         cosines = np.asarray(cosines, dtype=np.float32)[keep, None] * np.float32(self.scale)
         weights = np.take(self.albedo, kept, axis=0) * cosines
-        return np.asarray(rows, dtype=np.int32)[keep], nodes[keep], weights.astype(np.float32)
+        rows = np.asarray(rows, dtype=np.int32)[keep]
+        # A block's rays are point-major, so its rows come sorted: kept as runs (4 bytes a hit less).
+        runs = RowRuns(rows) if len(rows) < 2 or not np.any(rows[1:] < rows[:-1]) else rows
+        return runs, nodes[keep], weights.astype(np.float32)
+
+
+class RowRuns:
+    """The rows of sorted entries as runs: row ids[k] repeated counts[k] times (`+=` shifts them)."""
+
+    __slots__ = ("ids", "counts")
+
+    def __init__(self, rows: np.ndarray) -> None:
+        start = np.flatnonzero(np.r_[True, rows[1:] != rows[:-1]]) if len(rows) else np.zeros(0, np.intp)
+        self.ids = rows[start].astype(np.int32)
+        self.counts = np.diff(np.r_[start, len(rows)]).astype(np.int64)
+
+    def __len__(self) -> int:
+        return int(self.counts.sum())
+
+    def __iadd__(self, offset):
+        self.ids += offset
+        return self
+
+    def expand(self) -> np.ndarray:
+        return np.repeat(self.ids, self.counts)
+
+
+def _row_span(rows):
+    """(first row, last row, sorted) of an entry block's rows (RowRuns or an array)."""
+    if isinstance(rows, RowRuns):
+        return int(rows.ids[0]), int(rows.ids[-1]), True
+    return int(rows[0]), int(rows[-1]), len(rows) < 2 or not np.any(rows[1:] < rows[:-1])
 
 
 class Transport:
@@ -130,20 +162,20 @@ class Transport:
         self.slices = []  # (row ids (S,), nodes (S, K) int32, weights (S, K, C) float32)
         if not parts:
             return
-        in_order = all(len(p[0]) < 2 or not np.any(p[0][1:] < p[0][:-1]) for p in parts)
-        in_order = in_order and all(a[0][-1] <= b[0][0] for a, b in zip(parts, parts[1:]))
+        spans = [_row_span(p[0]) for p in parts]
+        in_order = all(s[2] for s in spans) and all(a[1] <= b[0] for a, b in zip(spans, spans[1:]))
         if in_order:  # (the usual case: slices in point order) the rows as counts, not a copy
             counts = np.zeros(self.n_rows, dtype=np.int64)
             for p in parts:
-                ids, per_row = np.unique(p[0], return_counts=True)
-                counts[ids] += per_row
+                runs = p[0] if isinstance(p[0], RowRuns) else RowRuns(p[0])
+                counts[runs.ids] += runs.counts
             parts = [(None, p[1], p[2]) for p in parts]
         if isinstance(entries, list):  # consumed: the caller's per-slice arrays are freed now
             entries.clear()
         nodes = np.concatenate([p[1] for p in parts])
         weights = np.concatenate([p[2] for p in parts])
         if not in_order:
-            rows = np.concatenate([p[0] for p in parts])
+            rows = np.concatenate([p[0].expand() if isinstance(p[0], RowRuns) else p[0] for p in parts])
             order = np.argsort(rows, kind="stable")
             rows, nodes, weights = rows[order], nodes[order], weights[order]
             counts = np.bincount(rows, minlength=self.n_rows)
@@ -230,6 +262,8 @@ class BouncePasses:
                 self.total = np.broadcast_to(self.total, self.term.shape).copy()
             self.total += self.term
         self.done += 1
+        if self.done == self.bounces:
+            self.term = self.direct = None  # (only the total is kept)
         return self.done < self.bounces
 
 
