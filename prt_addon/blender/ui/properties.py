@@ -33,21 +33,25 @@ class PRT_PG_world(bpy.types.PropertyGroup):
     )
     stored_order: bpy.props.IntProperty(name="Stored Order", description="0: nothing stored", default=0)
     source_kind: bpy.props.StringProperty(name="Source", description="IMAGE, COLOR or RENDER")
-    world_name: bpy.props.StringProperty(name="World")
-    source_node: bpy.props.StringProperty(name="Node")
-    image_name: bpy.props.StringProperty(name="Image")
-    image_size: bpy.props.IntVectorProperty(name="Image Size", size=2)
-    projected_size: bpy.props.IntVectorProperty(name="Projected Size", size=2)
-    mapping_node: bpy.props.StringProperty(name="Mapping Node")
-    mapping_type: bpy.props.StringProperty(name="Mapping Type")
-    mapping_rotation: bpy.props.FloatVectorProperty(name="Mapping Rotation", size=3, subtype="EULER")
+    world_name: bpy.props.StringProperty(name="World", description="The world that was projected")
+    source_node: bpy.props.StringProperty(name="Node", description="The world node whose light was projected")
+    image_name: bpy.props.StringProperty(name="Image", description="The image that was projected")
+    image_size: bpy.props.IntVectorProperty(name="Image Size", size=2, description="Width and height of that image")
+    projected_size: bpy.props.IntVectorProperty(
+        name="Projected Size", size=2, description="Width and height of the pixels projected"
+    )
+    mapping_node: bpy.props.StringProperty(name="Mapping Node", description="The Mapping node that turns the world")
+    mapping_type: bpy.props.StringProperty(name="Mapping Type", description="That Mapping node's type")
+    mapping_rotation: bpy.props.FloatVectorProperty(
+        name="Mapping Rotation", size=3, subtype="EULER", description="That Mapping node's rotation at projection"
+    )
     rotation_matrix: bpy.props.FloatVectorProperty(
         name="SH Rotation",
         description="Q, row-major: world coefficients = rotate(stored coefficients, Q)",
         size=9,
         default=(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
     )
-    seconds: bpy.props.FloatProperty(name="Time", unit="TIME_ABSOLUTE")
+    seconds: bpy.props.FloatProperty(name="Time", unit="TIME_ABSOLUTE", description="How long the projection took")
     truncation: bpy.props.FloatProperty(
         name="Truncation",
         description="Fraction of the L2 luminance energy of the world beyond the stored order",
@@ -103,7 +107,7 @@ class PRT_PG_world(bpy.types.PropertyGroup):
         description="Elevation of the strongest light above the horizon (Mapping rotation of the projection)",
         subtype="ANGLE",
     )
-    message: bpy.props.StringProperty(name="Notes")
+    message: bpy.props.StringProperty(name="Notes", description="What the projection reported")
     token: bpy.props.StringProperty(name="Token", description="Changes at every projection")
 
 
@@ -125,6 +129,7 @@ class PRT_PG_bake_settings(bpy.types.PropertyGroup):
     )
     direction_set: bpy.props.EnumProperty(
         name="Directions",
+        description="How the shared directions (one ray per vertex each) are spread over the sphere",
         items=[
             ("FIBONACCI", "Fibonacci", "Spherical Fibonacci set, randomly rotated (most accurate)"),
             ("STRATIFIED", "Stratified", "Jittered equal-area strata"),
@@ -155,6 +160,7 @@ class PRT_PG_bake_settings(bpy.types.PropertyGroup):
     )
     backend: bpy.props.EnumProperty(
         name="Backend",
+        description="Which ray tracer computes the shadows: Embree (fast) or Blender's BVH tree (fallback)",
         items=[
             ("AUTO", "Auto", "Embree when available, else Blender's BVH tree"),
             ("EMBREE", "Embree", "embreex (Embree 4), multi-threaded"),
@@ -162,7 +168,9 @@ class PRT_PG_bake_settings(bpy.types.PropertyGroup):
         ],
         default="AUTO",
     )
-    last_report: bpy.props.StringProperty(name="Last Report", default="", options={"SKIP_SAVE"})
+    last_report: bpy.props.StringProperty(
+        name="Last Report", default="", options={"SKIP_SAVE"}, description="The last bake's report (JSON)"
+    )
 
 
 class PRT_PG_display(bpy.types.PropertyGroup):
@@ -170,6 +178,7 @@ class PRT_PG_display(bpy.types.PropertyGroup):
     # after unregister. The draw reads these every redraw; the batch cache key includes them.
     albedo_source: bpy.props.EnumProperty(
         name="Albedo",
+        description="The surface colour the lighting is multiplied by in the viewport",
         items=[
             ("MATERIAL", "Material", "Base colour of each material slot"),
             ("ATTRIBUTE", "Color Attribute", "A colour attribute of the mesh"),
