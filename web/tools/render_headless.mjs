@@ -43,6 +43,9 @@ const browser = await puppeteer.launch({
   args: [...CHROMIUM_FLAGS, `--user-data-dir=${userData}`],
   headless: true,
   protocolTimeout: 600000,
+  // Chromium's first start on a fresh machine (font and shader caches) took over puppeteer's
+  // default 30 s once on 2 busy cores.
+  timeout: 180000,
 });
 const summary = { images: [], screenshots: [], console: [], requests: [] };
 try {
