@@ -352,3 +352,17 @@ def test_the_panel_bounces_are_used_only_with_scene_shadows(bpy_module, empty_sc
     assert settings_from(group).validate().bounces == 0
     group.shadows, group.self_shadow_only = True, True
     assert settings_from(group).validate().bounces == 0
+
+
+def test_the_bvh_tree_fallback_bounces_like_embree(bpy_module, empty_scene):
+    """Blender's BVH tree (the fallback without embreex) finds the same first hits: its
+    barycentrics are solved from ray_cast's hit point, Embree's by Moller-Trumbore."""
+    from prt_addon.blender import storage
+
+    objs = open_room(bpy_module, empty_scene)
+    api.project_world(empty_scene, 2)
+    results = {}
+    for backend in ("EMBREE", "BVHTREE"):
+        api.bake(objs, order=2, samples=8, bounces=2, backend=backend)
+        results[backend] = storage.read_bounce(objs[0].data).copy()
+    np.testing.assert_allclose(results["BVHTREE"], results["EMBREE"], rtol=1e-2, atol=1e-4)
