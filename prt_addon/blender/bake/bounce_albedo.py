@@ -13,6 +13,7 @@ warning.
 import numpy as np
 
 from .. import mesh_read
+from ..display.albedo import active_output
 
 DEFAULT_GREY = 0.8
 DIFFUSE_SHADERS = {"ShaderNodeBsdfPrincipled": "Base Color", "ShaderNodeBsdfDiffuse": "Color"}
@@ -52,12 +53,7 @@ def material_albedo(material, means):
     """(linear RGB, note or "") of a material for bounced light; means caches image means."""
     if material is None:
         return (DEFAULT_GREY,) * 3, ""
-    tree = getattr(material, "node_tree", None)
-    output = None
-    for node in tree.nodes if tree is not None else []:
-        if node.bl_idname == "ShaderNodeOutputMaterial" and node.is_active_output:
-            output = node
-            break
+    output = active_output(material)
     if output is None:
         return _viewport(material), ""
     surface = output.inputs["Surface"]

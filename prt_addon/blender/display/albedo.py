@@ -53,21 +53,25 @@ def element_albedo(mesh, domain, mode, attr_name):
     return np.where(counts > 0, sums / np.maximum(counts, 1), 1.0).astype(np.float32)
 
 
+def active_output(material):
+    """The material's active Material Output node, or None (no node tree, or none active)."""
+    tree = getattr(material, "node_tree", None)
+    for node in tree.nodes if tree is not None else []:
+        if node.bl_idname == "ShaderNodeOutputMaterial" and node.is_active_output:
+            return node
+    return None
+
+
 def material_colour(material):
     """Linear RGBA base colour of a material: Principled/Diffuse BSDF input, else diffuse_color."""
     if material is None:
         return (0.8, 0.8, 0.8, 1.0)
-    tree = getattr(material, "node_tree", None)
-    if tree is not None:
-        for node in tree.nodes:
-            if node.bl_idname == "ShaderNodeOutputMaterial" and node.is_active_output:
-                surface = node.inputs["Surface"]
-                if surface.is_linked:
-                    bsdf = surface.links[0].from_node
-                    sock = bsdf.inputs.get("Base Color") or bsdf.inputs.get("Color")
-                    if sock is not None and not sock.is_linked and hasattr(sock, "default_value"):
-                        return tuple(sock.default_value)
-                break
+    output = active_output(material)
+    if output is not None and output.inputs["Surface"].is_linked:
+        bsdf = output.inputs["Surface"].links[0].from_node
+        sock = bsdf.inputs.get("Base Color") or bsdf.inputs.get("Color")
+        if sock is not None and not sock.is_linked and hasattr(sock, "default_value"):
+            return tuple(sock.default_value)
     return tuple(material.diffuse_color)
 
 
