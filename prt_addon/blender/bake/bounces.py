@@ -9,11 +9,11 @@ only feeds the bounces. After the direct pass the bounce passes run on the whole
 
 import numpy as np
 
-from ...core import bounce, raytrace, transfer
+from ...core import bounce, raytrace
 from ...core.mesh import concatenate_parts
 from .. import mesh_read
 from .bounce_albedo import triangle_albedo
-from .settings import OFFSET_REL, OFFSET_ULP
+from .scene import ray_setup
 
 
 def _node_triangles(points, corners, corner_verts):
@@ -79,31 +79,12 @@ class BounceSystem:
 
     def _computation(self, job, points, world, triangles, src, boxes, index):
         s = job.settings
-        lower, upper = raytrace.bounding_box(world)
-        diagonal = float(np.linalg.norm(upper - lower))
-        offset = max(OFFSET_REL * diagonal, OFFSET_ULP * float(np.abs(world).max()), 1e-30)
-        self_occludes = True
-        if s.cull and not src.mesh.has_custom_normals:
-            self_occludes = not raytrace.cannot_self_occlude(world, triangles)
+        offset, self_occludes = ray_setup(world, triangles, src.mesh, s.cull)
         others = None
         if s.cull:
             others = np.array([b for k, b in enumerate(boxes) if k != index]).reshape(-1, 2, 3)
-        return transfer.TransferComputation(
-            points.positions,
-            points.normals,
-            job.directions,
-            s.order,
-            occluder=job._occluder,
-            offset=offset,
-            self_occludes=self_occludes,
-            other_boxes=others,
-            chunk_rays=s.chunk_rays,
-            threads=s.threads,
-            pool=self.pool,
-            surface=(world, triangles),
-            point_vertex=points.vertex,
-            hit_sink=self.sink,
-        )
+        surface = (world, triangles)
+        return job.transfer_computation(points, job._occluder, offset, self_occludes, others, surface, self.sink)
 
     def start_passes(self, plans):
         """Build the transport from every computation's hits (which are then freed) and queue the

@@ -133,26 +133,34 @@ class BakeJob:
             plan.occluder, plan.boxes = occluder, boxes
 
     def _computation(self, plan):
-        s = self.settings
         # The point's own surface moves each origin into its own faces as well as along the
         # normal, so that rays from a point in another surface's plane (a box standing on the
         # ground) do not slip under it (docs/bake.md, "Contacts"). Unshadowed: not needed.
         surface = None if plan.occluder is None else (plan.own_vertices, plan.own_triangles)
+        sink = None if self.bounce is None else self.bounce.sink
+        return self.transfer_computation(
+            plan.points, plan.occluder, plan.offset, plan.self_occludes, plan.boxes, surface, sink
+        )
+
+    def transfer_computation(self, points, occluder, offset, self_occludes, boxes, surface, hit_sink=None):
+        """A TransferComputation of `points` (BakePoints) with this job's directions, settings
+        and threads (the bake's objects, and the bounce system's other meshes)."""
+        s = self.settings
         return transfer.TransferComputation(
-            plan.points.positions,
-            plan.points.normals,
+            points.positions,
+            points.normals,
             self.directions,
             s.order,
-            occluder=plan.occluder,
-            offset=plan.offset,
-            self_occludes=plan.self_occludes,
-            other_boxes=plan.boxes,
+            occluder=occluder,
+            offset=offset,
+            self_occludes=self_occludes,
+            other_boxes=boxes,
             chunk_rays=s.chunk_rays,
             threads=s.threads,
             pool=self._pool,
             surface=surface,
-            point_vertex=plan.points.vertex,
-            hit_sink=None if self.bounce is None else self.bounce.sink,
+            point_vertex=points.vertex,
+            hit_sink=hit_sink,
         )
 
     def close(self):

@@ -82,6 +82,21 @@ def scene_parts(depsgraph, cache=None, sources=None):
     return parts
 
 
+def ray_setup(world, triangles, mesh, cull, diagonal=None):
+    """(ray origin offset, whether rays may hit the mesh itself) for a mesh at world positions:
+    the offset is OFFSET_REL of its bounding-box diagonal, at least OFFSET_ULP of its largest
+    coordinate (docs/bake.md, "Ray origins"); with culling, a planar or closed convex mesh
+    without custom normals cannot occlude itself."""
+    if diagonal is None:
+        lower, upper = raytrace.bounding_box(world)
+        diagonal = float(np.linalg.norm(upper - lower))
+    offset = max(OFFSET_REL * diagonal, OFFSET_ULP * float(np.abs(world).max()), 1e-30)
+    self_occludes = True
+    if cull and not mesh.has_custom_normals:
+        self_occludes = not raytrace.cannot_self_occlude(world, triangles)
+    return offset, self_occludes
+
+
 def check_object(obj, depsgraph, seen_meshes, reads, cull):
     """The bake plan of `obj`, or a string saying why it cannot be baked. seen_meshes: mesh
     name -> object name of the plans so far; reads: evaluated mesh pointer -> (positions,
@@ -134,10 +149,7 @@ def check_object(obj, depsgraph, seen_meshes, reads, cull):
         return "has zero size (all its vertices are at one point, or a scale of 0): its faces have no area to bake"
     seen_meshes[mesh.name] = name
     triangles = cached[1] if cached else mesh_read.read_triangles(mesh_eval, positions)
-    offset = max(OFFSET_REL * diagonal, OFFSET_ULP * float(np.abs(world).max()), 1e-30)
-    self_occludes = True
-    if cull and not mesh_eval.has_custom_normals:
-        self_occludes = not raytrace.cannot_self_occlude(world, triangles)
+    offset, self_occludes = ray_setup(world, triangles, mesh_eval, cull, diagonal)
     return _Plan(
         obj,
         name,
