@@ -51,6 +51,24 @@ def read_face_starts(mesh):
     return out
 
 
+def _tessellation(mesh):
+    """(corner vertices, face starts, face sizes, whether every face is a triangle or a quad)."""
+    corner_verts = read_corner_verts(mesh)
+    starts = read_face_starts(mesh)
+    sizes = np.diff(starts, append=np.int32(len(corner_verts)))
+    return corner_verts, starts, sizes, len(starts) > 0 and bool(((sizes == 3) | (sizes == 4)).all())
+
+
+def _loop_triangles(mesh, field):
+    """loop_triangles' `field` ('vertices', 'loops' or 'polygon_index') as int32, (T, 3) or (T,)."""
+    mesh.calc_loop_triangles()
+    width = 1 if field == "polygon_index" else 3
+    out = np.empty(len(mesh.loop_triangles) * width, dtype=np.int32)
+    if len(out):
+        mesh.loop_triangles.foreach_get(field, out)
+    return out if width == 1 else out.reshape(-1, 3)
+
+
 def read_triangles(mesh, positions=None):
     """(T, 3) int32 vertex indices of the mesh's loop triangles, in Blender's order.
 
@@ -58,15 +76,9 @@ def read_triangles(mesh, positions=None):
     mesh.loop_triangles, whose foreach_get goes element by element; docs/bake.md); meshes with
     n-gons read loop_triangles. positions: the mesh's vertex positions if already read.
     """
-    corner_verts = read_corner_verts(mesh)
-    starts = read_face_starts(mesh)
-    sizes = np.diff(starts, append=np.int32(len(corner_verts)))
-    if len(starts) == 0 or not ((sizes == 3) | (sizes == 4)).all():
-        mesh.calc_loop_triangles()
-        out = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
-        if len(out):
-            mesh.loop_triangles.foreach_get("vertices", out)
-        return out.reshape(-1, 3)
+    corner_verts, starts, sizes, quads_only = _tessellation(mesh)
+    if not quads_only:
+        return _loop_triangles(mesh, "vertices")
     positions = read_positions(mesh) if positions is None else positions
     return triangulate_quads(corner_verts, starts, sizes, positions)
 
@@ -74,17 +86,9 @@ def read_triangles(mesh, positions=None):
 def read_triangle_corners(mesh, positions=None):
     """((T, 3) int32 corner (loop) indices, (T,) int32 face index) of the loop triangles, in the
     order of read_triangles."""
-    corner_verts = read_corner_verts(mesh)
-    starts = read_face_starts(mesh)
-    sizes = np.diff(starts, append=np.int32(len(corner_verts)))
-    if len(starts) == 0 or not ((sizes == 3) | (sizes == 4)).all():
-        mesh.calc_loop_triangles()
-        corners = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
-        faces = np.empty(len(mesh.loop_triangles), dtype=np.int32)
-        if len(faces):
-            mesh.loop_triangles.foreach_get("loops", corners)
-            mesh.loop_triangles.foreach_get("polygon_index", faces)
-        return corners.reshape(-1, 3), faces
+    corner_verts, starts, sizes, quads_only = _tessellation(mesh)
+    if not quads_only:
+        return _loop_triangles(mesh, "loops"), _loop_triangles(mesh, "polygon_index")
     positions = read_positions(mesh) if positions is None else positions
     faces = np.repeat(np.arange(len(starts), dtype=np.int32), sizes - 2)
     return triangle_corners(corner_verts, starts, sizes, positions), faces
