@@ -220,8 +220,8 @@ def throughput(args):
     )
 
 
-def memory_child(samples, side):
-    prt_addon.register()
+def wavy_grid(side):
+    """A fresh scene holding one smooth side x side wavy grid (the memory benchmarks' mesh)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=side - 1, y_subdivisions=side - 1, size=10)
     grid = bpy.context.object
@@ -229,6 +229,25 @@ def memory_child(samples, side):
     wave.height, wave.width, wave.narrowness = 0.6, 1.2, 0.5
     bpy.ops.object.modifier_apply(modifier="Wave")
     grid.data.shade_smooth()
+    return grid
+
+
+def child_line(script, *args):
+    """The last line starting with a digit that `script` run in a fresh Python prints, split,
+    or None (printing the error) when it failed."""
+    out = subprocess.run(
+        [sys.executable, os.path.abspath(script), *map(str, args)], capture_output=True, text=True, cwd=ROOT
+    )
+    line = [l for l in out.stdout.splitlines() if l and l[0].isdigit()]
+    if out.returncode or not line:
+        print("  failed:", out.stderr[-2000:])
+        return None
+    return line[-1].split()
+
+
+def memory_child(samples, side):
+    prt_addon.register()
+    grid = wavy_grid(side)
     verts = len(grid.data.vertices)
     before = vm_kib("VmRSS")
     base_peak = vm_kib("VmHWM")
@@ -240,17 +259,10 @@ def memory_child(samples, side):
 def memory(args):
     print(f"peak memory, {args.side**2:,}-vertex wavy grid (smooth, order 4), fresh process per run:")
     for samples in args.memory_samples:
-        out = subprocess.run(
-            [sys.executable, os.path.abspath(__file__), "--memory-child", str(samples), "--side", str(args.side)],
-            capture_output=True,
-            text=True,
-            cwd=ROOT,
-        )
-        line = [l for l in out.stdout.splitlines() if l and l[0].isdigit()]
-        if out.returncode or not line:
-            print("  failed:", out.stderr[-2000:])
+        fields = child_line(__file__, "--memory-child", samples, "--side", args.side)
+        if fields is None:
             continue
-        verts, s, before, base_peak, peak, rays, seconds, backend = line[-1].split()
+        verts, s, before, base_peak, peak, rays, seconds, backend = fields
         print(
             f"  {int(verts):,} vertices, {s} directions: RSS before bake {int(before) / 1024:.0f} MiB "
             f"(peak so far {int(base_peak) / 1024:.0f}), peak during bake {int(peak) / 1024:.0f} MiB "

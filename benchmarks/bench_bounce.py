@@ -14,7 +14,6 @@ of a 1M-vertex wavy grid in fresh processes.
 
 import argparse
 import os
-import subprocess
 import sys
 import time
 
@@ -22,13 +21,11 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
 
-import bpy  # noqa: E402
-import numpy as np  # noqa: E402
 
 import prt_addon  # noqa: E402
 from prt_addon import api  # noqa: E402
 from prt_addon.core import raytrace  # noqa: E402
-from bench_bake import build_scene, same_rays, spread, vm_kib  # noqa: E402
+from bench_bake import build_scene, child_line, same_rays, spread, vm_kib, wavy_grid  # noqa: E402
 
 
 def query_seconds(occ, batches):
@@ -76,13 +73,7 @@ def speed(args):
 
 def memory_child(bounces, side):
     prt_addon.register()
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    bpy.ops.mesh.primitive_grid_add(x_subdivisions=side - 1, y_subdivisions=side - 1, size=10)
-    grid = bpy.context.object
-    wave = grid.modifiers.new("Wave", "WAVE")
-    wave.height, wave.width, wave.narrowness = 0.6, 1.2, 0.5
-    bpy.ops.object.modifier_apply(modifier="Wave")
-    grid.data.shade_smooth()
+    grid = wavy_grid(side)
     before = vm_kib("VmRSS")
     report = api.bake([grid], order=4, samples=256, bounces=bounces)
     peak = vm_kib("VmHWM")
@@ -92,17 +83,10 @@ def memory_child(bounces, side):
 def memory(args):
     print(f"peak memory, {args.side**2:,}-vertex wavy grid (order 4, 256 directions), fresh process per run:")
     for bounces in (0, 3):
-        out = subprocess.run(
-            [sys.executable, os.path.abspath(__file__), "--memory-child", str(bounces), "--side", str(args.side)],
-            capture_output=True,
-            text=True,
-            cwd=ROOT,
-        )
-        line = [l for l in out.stdout.splitlines() if l and l[0].isdigit()]
-        if out.returncode or not line:
-            print("  failed:", out.stderr[-2000:])
+        fields = child_line(__file__, "--memory-child", bounces, "--side", args.side)
+        if fields is None:
             continue
-        verts, b, before, peak, rays, seconds = line[-1].split()
+        verts, b, before, peak, rays, seconds = fields
         print(
             f"  bounces={b}: {int(verts):,} vertices, peak {int(peak) / 1024:.0f} MiB "
             f"(+{(int(peak) - int(before)) / 1024:.0f} MiB over the scene), {int(rays):,} rays, {seconds} s"
@@ -128,7 +112,6 @@ def main():
     prt_addon.register()
     speed(args)
     memory(args)
-    np.asarray(0)
 
 
 if __name__ == "__main__":
