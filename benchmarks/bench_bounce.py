@@ -31,7 +31,7 @@ from bench_bake import build_scene, child_line, same_rays, spread, vm_kib, wavy_
 def query_seconds(occ, batches):
     """(OCCLUDED seconds, INTERSECT seconds) over the bake's batches, one thread each."""
     times = []
-    for query in ("occluded", "first_hits"):
+    for query in ("occluded", "nearest_triangles"):
         t0 = time.perf_counter()
         for origins, dirs in batches:
             getattr(occ, query)(origins, dirs)

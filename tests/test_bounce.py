@@ -130,12 +130,21 @@ def test_hits_do_not_depend_on_threads_or_slices():
     np.testing.assert_allclose(results[0], results[1], rtol=1e-5, atol=1e-7)
 
 
-def test_embree_barycentrics_locate_the_hit():
-    v = np.array([[0, 0, 1], [2, 0, 1], [0, 3, 1]], np.float32)
-    occ = raytrace.EmbreeOccluder(v, np.array([[0, 1, 2]], np.int32))
-    prims, u, w = occ.first_hits(
-        np.array([[0.5, 0.6, 0], [5, 5, 0]], np.float32), np.array([[0, 0, 1]] * 2, np.float32)
-    )
-    assert list(prims) == [0, -1]
-    hit = (1 - u[0] - w[0]) * v[0] + u[0] * v[1] + w[0] * v[2]
-    np.testing.assert_allclose(hit[:2], [0.5, 0.6], atol=1e-6)
+def test_nearest_triangles_and_barycentrics_locate_the_hit():
+    v = np.array([[0, 0, 1], [2, 0, 1], [0, 3, 1], [0, 0, 2], [2, 0, 2], [0, 3, 2]], np.float32)
+    occ = raytrace.EmbreeOccluder(v, np.array([[3, 4, 5], [0, 1, 2]], np.int32))
+    origins = np.array([[0.5, 0.6, 0], [5, 5, 0], [0.2, 0.3, 3]], np.float32)
+    dirs = np.array([[0, 0, 1], [0, 0, 1], [0, 0, -1]], np.float32)
+    prims = occ.nearest_triangles(origins, dirs)
+    assert list(prims) == [1, -1, 0]  # the nearer of two stacked triangles, from either side
+    sink = bounce.HitTransport(v, [[3, 4, 5], [0, 1, 2]], [[0, 1, 2]] * 2, 1.0, 1)
+    hit = prims >= 0
+    u, w, det = bounce.hit_barycentrics(sink.corners[prims[hit]], origins[hit], dirs[hit])
+    corners = v[[[0, 1, 2], [3, 4, 5]]]
+    located = (1 - u)[:, None] * corners[:, 0] + u[:, None] * corners[:, 1] + w[:, None] * corners[:, 2]
+    np.testing.assert_allclose(located[:, :2], [[0.5, 0.6], [0.2, 0.3]], atol=1e-6)
+    # The triangles' winding normal is +z: the ray going up meets a back face, the one going down a
+    # front face (det > 0), whose hit alone the sink keeps.
+    assert det[0] < 0 < det[1]
+    rows, nodes, weights = sink(np.array([0, 1]), np.array([0, 0]), dirs[hit], np.ones(2), prims[hit], origins[hit])
+    assert len(nodes) == 1 and rows.expand().tolist() == [1]

@@ -66,6 +66,6 @@ class LazyOccluder:
         real = self._real if self._real is not None else self._build()
         return real.occluded(origins, directions)
 
-    def first_hits(self, origins: npt.ArrayLike, directions: npt.ArrayLike) -> tuple[np.ndarray, ...]:
+    def nearest_triangles(self, origins: npt.ArrayLike, directions: npt.ArrayLike) -> np.ndarray:
         real = self._real if self._real is not None else self._build()
-        return real.first_hits(origins, directions)
+        return real.nearest_triangles(origins, directions)

@@ -5,9 +5,8 @@ Occluder protocol (duck-typed; `prt_addon/blender/bvh_backend.py` implements it 
     occluder.name          "EMBREE" or "BVHTREE"
     occluder.max_threads   how many Python threads may call occluded() at once usefully
     occluder.occluded(origins f32 (N, 3), directions f32 (N, 3)) -> bool (N,)
-    occluder.first_hits(origins, directions) -> (triangle int32 (N,), u, v float32 (N,)): the
-        nearest hit's triangle (-1: none) and barycentrics, hit = (1 - u - v) a + u b + v c for
-        the triangle's corners (a, b, c); used by interreflected bakes (core.bounce)
+    occluder.nearest_triangles(origins, directions) -> int32 (N,): the nearest hit's triangle
+        (-1: none), used by interreflected bakes (core.bounce, which finds where on the triangle)
 
 A ray is occluded when it hits any triangle at a distance in (0, inf). The caller offsets the
 origins (Embree's tnear is fixed at 0). occluded() must be thread-safe.
@@ -26,8 +25,6 @@ Culling (no rays where nothing can occlude), used by prt_addon.core.transfer:
 """
 
 from __future__ import annotations
-
-import threading
 
 
 import numpy as np
@@ -81,8 +78,6 @@ class EmbreeOccluder:
         if len(t) == 0:
             raise ValueError("an occluder needs at least one triangle")
         self.triangle_count = len(t)
-        self._vertices, self._triangles = v, t  # (first_hits' barycentrics)
-        self._table, self._table_lock = None, threading.Lock()
         self._scene = _embree_scene.EmbreeScene(robust=robust)
         self.geometry = "COPIED"
         if shared and embree_buffers.available():
@@ -105,51 +100,14 @@ class EmbreeOccluder:
         # run() returns int32: 0 where occluded, -1 where the ray is free.
         return self._scene.run(o, d, query="OCCLUDED") == 0
 
-    def _corner_table(self):
-        """(T, 9) float32 rows (a, b - a, c - a) of the triangles, built on first use (bounced
-        bakes only): one take() of 36-byte rows per batch instead of three 12-byte gathers."""
-        with self._table_lock:
-            if self._table is None:
-                v, t = self._vertices, self._triangles
-                a = v[t[:, 0]]
-                self._table = np.ascontiguousarray(np.hstack([a, v[t[:, 1]] - a, v[t[:, 2]] - a]))
-        return self._table
-
-    def first_hits(self, origins: npt.ArrayLike, directions: npt.ArrayLike) -> tuple[np.ndarray, ...]:
+    def nearest_triangles(self, origins: npt.ArrayLike, directions: npt.ArrayLike) -> np.ndarray:
+        # The primitive alone: embreex's full output (barycentrics, distance, normal) costs ~1.4
+        # times as much with two threads; core.bounce solves the barycentrics of the hits it keeps.
         o = np.asarray(origins, dtype=np.float32)
         d = np.asarray(directions, dtype=np.float32)
         if len(o) == 0:
-            return np.zeros(0, np.int32), np.zeros(0, np.float32), np.zeros(0, np.float32)
-        # The primitive alone (embreex's full output costs ~1.4 times as much with two threads),
-        # then the barycentrics of the hits only, by Moller and Trumbore (1997):
-        # u = (o - a) . (d x e2) / det, v = d . ((o - a) x e1) / det, det = e1 . (d x e2).
-        prims = self._scene.run(o, d, query="INTERSECT")
-        u = np.zeros(len(o), np.float32)
-        v = np.zeros(len(o), np.float32)
-        hit = np.flatnonzero(prims >= 0)
-        if len(hit):
-            corners = np.take(self._corner_table(), prims[hit], axis=0)  # (m, 9): a, e1, e2
-            a, e1, e2 = corners[:, 0:3], corners[:, 3:6], corners[:, 6:9]
-            dh, th = np.take(d, hit, axis=0), np.take(o, hit, axis=0) - a
-            p, q = _cross(dh, e2), _cross(th, e1)
-            det = _dot(e1, p)
-            det[det == 0.0] = 1.0
-            u[hit] = _dot(th, p) / det
-            v[hit] = _dot(dh, q) / det
-        return prims, u, v
-
-
-def _cross(a, b):
-    """Row-wise cross product of (n, 3) arrays, column by column (np.cross is ~3 times slower)."""
-    out = np.empty_like(a)
-    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
-    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return out
-
-
-def _dot(a, b):
-    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+            return np.zeros(0, np.int32)
+        return self._scene.run(o, d, query="INTERSECT")
 
 
 def bounding_box(vertices: npt.ArrayLike) -> np.ndarray:

@@ -33,9 +33,10 @@ RAY_BYTES and each point (K + 3) n^2 float64 accumulators, so the working set is
 chunk_rays * RAY_BYTES whatever the sample count, order and mesh size; worker threads take whole
 slices (Embree and numpy release the GIL), queued ahead of the one step() collects.
 
-Interreflection (core.bounce): with a hit_sink, the shadow pass asks the occluder for each
-blocked ray's first hit (first_hits) and hands the hits to the sink, whose entries are kept per
-slice in point order (self.hits).
+Interreflection (core.bounce): with a hit_sink, the rays of the first ceil(K / 2) error groups
+(directions [0, hit_end): a well-spread half of the set) ask for their nearest triangle instead,
+and the blocked ones go to the sink with their weights times N / hit_end (unbiased); its entries
+are kept per slice in point order (self.hits).
 """
 
 from __future__ import annotations
@@ -159,6 +160,8 @@ class TransferComputation:
         self._started = None
         self.hit_sink = hit_sink
         self.hits = []  # the sink's entries, one tuple per slice
+        self.hit_end = int(self.group_bounds[-(-groups // 2)]) if hit_sink is not None else 0
+        self.hit_weight = self.n_dirs / self.hit_end if self.hit_end else 0.0
 
     @property
     def total(self) -> int:
@@ -212,8 +215,8 @@ class TransferComputation:
 
         weight is max(0, n . w) (T * pi), (hi - lo, k1 - k0) float64; `flat` are the flat
         indices into weight of the rays to trace (above the horizon, at points that need rays),
-        point-major, and origins/dirs those rays, (n, 3) float32 views of 16-byte rows. weight
-        and dirs are per-thread buffers, valid until the next call in the same thread.
+        point-major, and origins/dirs those rays as (n,) 16-byte rows (ray_rows). weight and
+        dirs are per-thread buffers, valid until the next call in the same thread.
         """
         ws = self._workspace()
         n_pts, cols = hi - lo, k1 - k0
@@ -225,7 +228,7 @@ class TransferComputation:
         np.maximum(weight, 0.0, out=weight)
         if not needs.any():  # unshadowed slice: nothing to trace
             empty = np.empty(0, dtype=_RAY16)
-            return weight, int(np.count_nonzero(above)), np.empty(0, dtype=np.intp), _xyz(empty), _xyz(empty)
+            return weight, int(np.count_nonzero(above)), np.empty(0, dtype=np.intp), empty, empty
         per_point = np.count_nonzero(above, axis=1)  # directions above the horizon, per point
         n_above = int(per_point.sum())
         if not needs.all():
@@ -235,7 +238,12 @@ class TransferComputation:
         # Rays are point-major: each origin is repeated once per direction it traces.
         origins = np.repeat(self.origins16[lo:hi], per_point)
         dirs = np.take(self._tiled_dirs(k0, k1), flat, out=ws["dirs"][: len(flat)])
-        return weight, n_above, flat, _xyz(origins), _xyz(dirs)
+        return weight, n_above, flat, origins, dirs
+
+    def _blocks(self):
+        """(k0, k1) direction blocks of a slice, split at hit_end (bounced bakes)."""
+        edges = sorted({0, self.hit_end, self.n_dirs})
+        return [(k, min(b, k + self.dir_block)) for a, b in zip(edges, edges[1:]) for k in range(a, b, self.dir_block)]
 
     def _tiled_dirs(self, k0, k1):
         """dirs16[k0:k1] repeated for points_per_slice points (shared by the threads): the
@@ -254,11 +262,10 @@ class TransferComputation:
             needs = self._needs_rays(lo, hi)
             if not needs.any():
                 continue
-            for k0 in range(0, self.n_dirs, self.dir_block):
-                k1 = min(self.n_dirs, k0 + self.dir_block)
+            for k0, k1 in self._blocks():
                 _w, _n, _t, origins, dirs = self._block(lo, hi, k0, k1, needs)
                 if len(origins):
-                    yield np.ascontiguousarray(origins), np.ascontiguousarray(dirs)
+                    yield np.ascontiguousarray(_xyz(origins)), np.ascontiguousarray(_xyz(dirs))
 
     def _slice(self, lo, hi):
         """Project points [lo, hi): returns (t, err, stats, hit entries) for the slice."""
@@ -269,9 +276,9 @@ class TransferComputation:
         sums = np.zeros((len(bounds) - 1, n_pts, nn))  # per error group
         needs = self._needs_rays(lo, hi)
         entries = []
-        for k0 in range(0, self.n_dirs, self.dir_block):
-            k1 = min(self.n_dirs, k0 + self.dir_block)
-            weight, n_above, flat, origins, dirs = self._block(lo, hi, k0, k1, needs)
+        for k0, k1 in self._blocks():
+            weight, n_above, flat, rays_o, rays_d = self._block(lo, hi, k0, k1, needs)
+            origins, dirs = _xyz(rays_o), _xyz(rays_d)
             n_trace = len(origins)
             stats.skipped_below_horizon += weight.size - n_above
             if self.occluder is None:
@@ -280,10 +287,11 @@ class TransferComputation:
                 stats.skipped_unoccludable += n_above - n_trace
             if n_trace:
                 t0 = time.perf_counter()
-                if self.hit_sink is None:
+                keep_hits = k0 < self.hit_end
+                if not keep_hits:
                     hit = np.asarray(self.occluder.occluded(origins, dirs), dtype=bool)
                 else:
-                    prims, bary_u, bary_v = self.occluder.first_hits(origins, dirs)
+                    prims = self.occluder.nearest_triangles(origins, dirs)
                     hit = np.asarray(prims) >= 0
                 stats.trace_seconds += time.perf_counter() - t0
                 if hit.shape != (n_trace,):
@@ -293,10 +301,10 @@ class TransferComputation:
                 stats.occluded_rays += n_hit
                 if n_hit:
                     hit_flat = np.compress(hit, flat, out=self._workspace()["index"][:n_hit])
-                    if self.hit_sink is not None:
+                    if keep_hits:
                         which, cols = np.flatnonzero(hit), k1 - k0
-                        ray = (np.take(dirs, which, axis=0), weight.reshape(-1)[hit_flat], prims[which])
-                        hits = (*ray, bary_u[which], bary_v[which])
+                        cosines = weight.reshape(-1)[hit_flat] * self.hit_weight
+                        hits = (_xyz(np.take(rays_d, which)), cosines, prims[which], _xyz(np.take(rays_o, which)))
                         entries.append(self.hit_sink(lo + hit_flat // cols, k0 + hit_flat % cols, *hits))
                     weight.reshape(-1)[hit_flat] = 0.0  # (np.put is several times slower)
             # Split the block at the group boundaries of the permuted direction order.
