@@ -68,19 +68,20 @@ class HitTransport:
         orientation: npt.ArrayLike | None = None,
     ) -> None:
         v = np.asarray(vertices, dtype=np.float32).reshape(-1, 3)
-        t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-        nodes = np.array(node_triangles, dtype=np.int32).reshape(-1, 3)
+        t = np.asarray(triangles).reshape(-1, 3)
+        nodes = np.asarray(node_triangles, dtype=np.int32).reshape(-1, 3)
         if len(nodes) != len(t):
             raise ValueError("node_triangles must have one row per triangle")
-        if orientation is not None:
+        flip = None if orientation is None else np.flatnonzero(np.asarray(orientation).reshape(-1) < 0)
+        if flip is not None and len(flip):
             # A triangle whose winding is reversed (a mirrored object) is stored as (a, c, b), so
             # that (b - a) x (c - a) points out of every front face.
-            flip = np.asarray(orientation, dtype=np.float64).reshape(-1) < 0
-            t = np.where(flip[:, None], t[:, [0, 2, 1]], t)
-            nodes = np.where(flip[:, None], nodes[:, [0, 2, 1]], nodes)
-        a = v[t[:, 0]]
+            t, nodes = t.copy(), nodes.copy()
+            t[flip], nodes[flip] = t[flip][:, [0, 2, 1]], nodes[flip][:, [0, 2, 1]]
         # (T, 9) rows (a, b - a, c - a): one take() of 36-byte rows per batch of hits.
-        self.corners = np.ascontiguousarray(np.hstack([a, v[t[:, 1]] - a, v[t[:, 2]] - a]))
+        self.corners = np.take(v, t, axis=0).reshape(-1, 9)
+        self.corners[:, 3:6] -= self.corners[:, 0:3]
+        self.corners[:, 6:9] -= self.corners[:, 0:3]
         self.node_triangles = nodes
         rho = np.asarray(albedo, dtype=np.float64)
         rho = np.broadcast_to(rho, (len(t), 1)) if rho.ndim == 0 else rho.reshape(len(t), -1)
