@@ -97,14 +97,14 @@ def environment(scene, world, size=DEFAULT_SIZE):
     mips = specular_mips(scene, size)
     filtered = time.perf_counter()
     images = [[face_png(face) for face in mip] for mip in mips]
-    radiance = np.asarray(world["coefficients"], dtype=np.float64)
-    radiance = radiance + np.asarray(world["lights_coefficients"], dtype=np.float64)
+    # The full world: the PRT sky plus the split lights' SH (orders may differ: 9 terms of each).
+    irradiance = irradiance_coefficients(world["coefficients"]) + irradiance_coefficients(world["lights_coefficients"])
     peak = max(float(m.max()) for m in mips)
     light = {
         "name": scene.world.name if scene.world is not None else "World",
         "intensity": 1.0,
         "rotation": [0.0, 0.0, 0.0, 1.0],
-        "irradianceCoefficients": irradiance_coefficients(radiance).tolist(),
+        "irradianceCoefficients": irradiance.tolist(),
         "specularImageSize": size,
         "extras": {
             "PRT_lighting": {
