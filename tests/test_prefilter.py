@@ -191,3 +191,17 @@ def test_png_round_trip():
     assert np.array_equal(_decode_png(rgbd_png.png_bytes(rgba)), rgba)
     with pytest.raises(ValueError):
         rgbd_png.png_bytes(np.zeros((4, 4, 3), np.uint8))
+
+
+@pytest.mark.parametrize("size", [1, 2, 4, 8])
+def test_symmetry_indices_move_texels_with_their_directions(size):
+    d = prefilter.face_directions(size).reshape(-1, 3)
+    groups = prefilter.cube_symmetries()
+    assert len(groups) == 48 and len({g.tobytes() for g in groups}) == 48
+    for g in groups:
+        idx = prefilter.symmetry_indices(g, size)
+        assert np.allclose(d[idx], d @ g.T)
+    covered = np.zeros(6 * size * size, bool)
+    for g in groups:
+        covered[prefilter.symmetry_indices(g, size).reshape(6, -1)[0][prefilter.fundamental_texels(size)]] = True
+    assert covered.all()

@@ -22,14 +22,16 @@ c = n.l, n.h = sqrt((1 + c) / 2), so D is a function of c alone,
 D = alpha^2 / (pi (alpha^2 + (1 - c) (1 - alpha^2) / 2)^2). The source of mip k is the radiance
 cube reduced to min(N0, max(2 N_k, 32)) texels (2x2 solid-angle-weighted means).
 
-Cost: every output texel of face +X against every source texel, in chunks of at most
-CHUNK_ELEMENTS weights (float32), and the other five faces from the same weights (the texel grid
-is symmetric under the signed permutations that map face +X onto the others, and the weight
-depends only on n.l): 6 N_k^2 x 6 S_k^2 / 6 weights per mip, dominated by mip 1 (N0 = 128:
-4096 x 98304).
+Cost: the output texels of 1/48 of the sphere (0 <= s <= t on face +X) against every source
+texel, in chunks of at most CHUNK_ELEMENTS weights (float32); every other output texel comes
+from the same weights, since the texel grid is symmetric under the cube's 48 signed permutations
+and the weight depends only on n.l: about 6 N_k^2 x 6 S_k^2 / 48 weights per mip and a matrix
+product with 48 x 3 columns, dominated by mip 1 (N0 = 128: 544 x 98304 weights).
 """
 
 from __future__ import annotations
+
+import itertools
 
 import numpy as np
 import numpy.typing as npt
@@ -51,6 +53,7 @@ FACE_MATRICES = np.array(
 FACE_NAMES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
 CHUNK_ELEMENTS = 1 << 22  # weights per chunk (16 MB in float32; a few such arrays at a time)
 MIN_SOURCE = 32  # the coarse mips are summed over at least this source resolution
+TINY = 1e-30  # source values below this (times the texel's solid angle) count as 0
 
 
 def check_size(size: int) -> int:
@@ -168,38 +171,81 @@ def ggx_weight(cosine: np.ndarray, alpha: float) -> np.ndarray:
     return cosine
 
 
-def _symmetry_indices(size: int) -> np.ndarray:
-    """(6, 6 size^2) flat texel indices: out[f, s'] is the texel at Q_f d_s', where Q_f maps face
-    0's texel directions onto face f's (Q_f = M_f M_0^T)."""
-    d = face_directions(size).reshape(-1, 3)
-    out = np.empty((6, d.shape[0]), dtype=np.int64)
+def cube_symmetries() -> np.ndarray:
+    """(48, 3, 3) the signed permutation matrices: the rotations and reflections of the cube,
+    each of which maps the texel centres of any N x N cube onto themselves."""
+    out = []
+    for perm in itertools.permutations(range(3)):
+        for signs in itertools.product((1.0, -1.0), repeat=3):
+            m = np.zeros((3, 3))
+            m[range(3), perm] = signs
+            out.append(m)
+    return np.array(out)
+
+
+def _flat_index(directions, size):
+    face, row, column = direction_to_texel(directions, size)
+    return (face * size + row) * size + column
+
+
+def symmetry_indices(g: np.ndarray, size: int) -> np.ndarray:
+    """(6 size^2,) flat index of the texel at g d for every texel centre d (g a cube symmetry),
+    by integer arithmetic: g M_f (s, t, 1) = M_f' (s', t', 1) with (s', t') a signed swap of
+    (s, t), and s -> -s is column i -> size - 1 - i."""
+    out = np.empty((6, size, size), dtype=np.int64)
+    j, i = np.indices((size, size))
     for f in range(6):
-        q = FACE_MATRICES[f] @ FACE_MATRICES[0].T
-        face, row, column = direction_to_texel(d @ q.T, size)
-        out[f] = (face * size + row) * size + column
-    return out
+        axis = g @ FACE_MATRICES[f][:, 2]  # the face's normal, moved
+        f2 = int(_flat_index(axis[None, :], 1)[0])
+        p = FACE_MATRICES[f2].T @ g @ FACE_MATRICES[f]  # (s, t, 1) -> (s', t', 1)
+        s_src = np.where(p[0, 0] != 0, i, j)  # which of (i, j) becomes the new column
+        t_src = np.where(p[1, 0] != 0, i, j)
+        s_sign, t_sign = p[0, 0] + p[0, 1], p[1, 0] + p[1, 1]
+        column = np.where(s_sign > 0, s_src, size - 1 - s_src)
+        row = np.where(t_sign > 0, t_src, size - 1 - t_src)
+        out[f] = (f2 * size + row) * size + column
+    return out.ravel()
+
+
+def fundamental_texels(size: int) -> np.ndarray:
+    """Flat indices (into face +X) of the texels with 0 <= s <= t: 1/48 of the sphere, whose
+    images under the 48 symmetries cover every texel."""
+    c = face_coordinates(size)
+    t, s = np.meshgrid(c, c, indexing="ij")
+    keep = (s >= -1e-12) & (t >= s - 1e-12)
+    return np.flatnonzero(keep.ravel())
 
 
 def prefilter_level(source: np.ndarray, size: int, alpha: float) -> np.ndarray:
-    """(6, size, size, C) GGX prefilter (N = V = R) of a source cube (6, S, S, C) at alpha."""
+    """(6, size, size, C) GGX prefilter (N = V = R) of a source cube (6, S, S, C) at alpha.
+
+    The weights are computed for the fundamental texels only; since the weight depends on n.l
+    alone, the output at G n (G one of the 48 cube symmetries) is the same weights applied to the
+    source seen through G: sum_s w(n . d_s) L(G d_s)."""
     size = check_size(size)
     s = source.shape[1]
     channels = source.shape[-1]
-    src_dirs = face_directions(s).reshape(-1, 3).astype(np.float32)
+    src_dirs = face_directions(s).reshape(-1, 3)
     omega = np.tile(texel_solid_angles(s).ravel(), 6).astype(np.float32)
-    flat = source.reshape(-1, channels)
-    # Columns f * C + c: the source seen by face f's outputs through face 0's weights.
-    permuted = np.concatenate([flat[idx] for idx in _symmetry_indices(s)], axis=1).astype(np.float32)
-    permuted *= omega[:, None]
-    out_dirs = face_directions(size)[0].reshape(-1, 3).astype(np.float32)
-    result = np.empty((out_dirs.shape[0], 6 * channels))
+    flat = (source.reshape(-1, channels) * omega[:, None]).astype(np.float32)  # omega is symmetric too
+    flat[np.abs(flat) < TINY] = 0.0  # float32 subnormals make the matrix products 100 times slower
+    groups = cube_symmetries()
+    # Columns g * C + c: the source through symmetry g.
+    permuted = np.concatenate([flat[symmetry_indices(g, s)] for g in groups], axis=1)
+    src_dirs = src_dirs.astype(np.float32)
+    base = face_directions(size)[0].reshape(-1, 3)[fundamental_texels(size)]
+    targets = np.stack([_flat_index(base @ g.T, size) for g in groups])  # (48, fundamental)
+    result = np.empty((base.shape[0], len(groups) * channels))
     rows = max(1, CHUNK_ELEMENTS // src_dirs.shape[0])
-    for start in range(0, out_dirs.shape[0], rows):
-        cosine = out_dirs[start : start + rows] @ src_dirs.T
+    for start in range(0, base.shape[0], rows):
+        cosine = base[start : start + rows].astype(np.float32) @ src_dirs.T
         w = ggx_weight(cosine, alpha)
         total = w @ omega
         result[start : start + rows] = (w @ permuted) / total[:, None]
-    return result.reshape(size, size, 6, channels).transpose(2, 0, 1, 3)
+    out = np.empty((6 * size * size, channels))
+    for k in range(len(groups)):
+        out[targets[k]] = result[:, k * channels : (k + 1) * channels]
+    return out.reshape(6, size, size, channels)
 
 
 def source_size(base: int, size: int) -> int:
