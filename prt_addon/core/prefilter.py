@@ -26,7 +26,7 @@ Cost: the output texels of 1/48 of the sphere (0 <= s <= t on face +X) against e
 texel, in chunks of at most CHUNK_ELEMENTS weights (float32); every other output texel comes
 from the same weights, since the texel grid is symmetric under the cube's 48 signed permutations
 and the weight depends only on n.l: about 6 N_k^2 x 6 S_k^2 / 48 weights per mip and a matrix
-product with 48 x 3 columns, dominated by mip 1 (N0 = 128: 544 x 98304 weights).
+product with 48 x 3 columns, dominated by mip 1 (N0 = 128: 528 x 98304 weights).
 """
 
 from __future__ import annotations
