@@ -54,33 +54,33 @@ def babylon_irradiance(coefficients, directions_gltf):
 
 
 def _radiance_source(scene, size):
-    """(pixels (H, W, 3) equirect or None, constant RGB or None, Q): world radiance at Blender
-    world direction w is image(Q^T w), strength applied. Raises WorldError."""
+    """(pixels (H, W, C) equirect or None, constant RGB or None, Q, strength): the world's
+    radiance at Blender world direction w is strength image(Q^T w). Raises WorldError."""
     source = _nodes.analyse_world(scene)
     if source.kind == "COLOR":
         colour = np.clip(np.asarray(source.color, dtype=np.float64)[:3] * source.strength, 0.0, None)
-        return None, colour, np.eye(3)
+        return None, colour, np.eye(3), 1.0
     if source.kind == "IMAGE":
         try:
-            pixels = read_image_pixels(source.image)[:, :, :3]
+            pixels = read_image_pixels(source.image)  # float32, not copied: large HDRIs stay cheap
             q = source.mapping.sh_rotation() if source.mapping is not None else np.eye(3)
-            return np.asarray(pixels, dtype=np.float64) * source.strength, None, q
+            return pixels[:, :, :3], None, q, float(source.strength)
         except _NeedsRender:
             pass
     # Cycles renders the world as the scene sees it: Mapping and strength included.
-    return render_world(scene, 2 * size), None, np.eye(3)
+    return render_world(scene, 2 * size), None, np.eye(3), 1.0
 
 
 def specular_mips(scene, size=DEFAULT_SIZE):
     """The prefiltered mips [(6, N, N, 3)] of the world (full, unsplit) in the cube frame."""
     size = prefilter.check_size(size)
-    pixels, colour, q = _radiance_source(scene, size)
+    pixels, colour, q, strength = _radiance_source(scene, size)
     if pixels is None:
         cube = np.broadcast_to(colour, (6, size, size, 3)).copy()
     else:
         # cube frame -> glTF (BABYLON_FROM_GLTF is its own inverse) -> Blender -> image
         to_image = q.T @ _BLENDER_TO_GLTF.T @ BABYLON_FROM_GLTF
-        cube = prefilter.radiance_cube(pixels, size, to_image)
+        cube = prefilter.radiance_cube(pixels, size, to_image) * strength
     return prefilter.prefilter_mips(cube)
 
 
