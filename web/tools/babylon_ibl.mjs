@@ -4,7 +4,7 @@
 //
 // JOB.json: {"glb": file, "chromium": executable, "work": folder for the page and the profile,
 //   "samples": [{"dirs": [[x, y, z], ...] glTF world directions, "lod": mip}, ...],
-//   "mirror": {"dirs": [[x, y, z], ...], "roughness": r} (optional)}
+//   "mirrors": [{"dirs": [[x, y, z], ...], "roughness": r}, ...] (optional)}
 // Prints a JSON summary: the texture's figures and SH (babylon_ibl_page.js `load`), the samples'
 // RGB, the mirror's pixels, the console and every request that was not file:, data: or blob:.
 // esbuild, puppeteer-core and Babylon.js come from build/node (scripts/setup_node.sh).
@@ -70,8 +70,9 @@ try {
   for (const probe of job.samples || []) {
     summary.samples.push(await page.evaluate((d, l) => window.babylonProbe.sample(d, l), probe.dirs, probe.lod));
   }
-  if (job.mirror) {
-    summary.mirror = await page.evaluate((d, r) => window.babylonProbe.mirror(d, r), job.mirror.dirs, job.mirror.roughness);
+  summary.mirrors = [];
+  for (const probe of job.mirrors || []) {
+    summary.mirrors.push(await page.evaluate((d, r) => window.babylonProbe.mirror(d, r), probe.dirs, probe.roughness));
   }
 } finally {
   await browser.close();

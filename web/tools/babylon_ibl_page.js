@@ -3,7 +3,7 @@
 // window.babylonProbe (bundled by babylon_ibl.mjs, run in headless Chromium):
 //   load(base64)         -> the loaded environment texture's figures and its shader's SH
 //   sample(dirs, lod)    -> [[r, g, b]] the cube texture sampled (textureLod) at glTF directions
-//   mirror(dirs, rough)  -> [[r, g, b, a]] 8-bit centre pixel of a PBR metal sphere seen from each glTF direction
+//   mirror(dirs, rough)  -> [[r, g, b, a]] 8-bit centre pixel of a PBR metal sphere (roughness rough) seen from each glTF direction
 // glTF directions are taken into Babylon's world by the loader's own __root__ node matrix.
 import * as BABYLON from '@babylonjs/core';
 import '@babylonjs/loaders/glTF/index.js';
@@ -126,18 +126,24 @@ void main() { vec3 d = texelFetch(dirs, ivec2(gl_FragCoord.xy), 0).xyz; o = vec4
 // A PBR metal sphere (albedo 1, metallic 1) at the origin seen from far along each direction with
 // a narrow field of view: the centre pixel's normal faces the camera, so it reflects the
 // environment in the camera's direction (8-bit output, Babylon's default image processing).
+let probe = null;
+
 async function mirror(dirs, roughness) {
-  for (const mesh of scene.meshes) mesh.setEnabled(false);
-  const sphere = BABYLON.MeshBuilder.CreateSphere('probe sphere', { diameter: 2, segments: 64 }, scene);
-  const material = new BABYLON.PBRMaterial('probe metal', scene);
-  material.metallic = 1.0;
+  if (!probe) {
+    for (const mesh of scene.meshes) mesh.setEnabled(false);
+    const sphere = BABYLON.MeshBuilder.CreateSphere('probe sphere', { diameter: 2, segments: 64 }, scene);
+    const material = new BABYLON.PBRMaterial('probe metal', scene);
+    material.metallic = 1.0;
+    material.albedoColor = new BABYLON.Color3(1, 1, 1);
+    sphere.material = material;
+    const camera = new BABYLON.FreeCamera('probe camera', new BABYLON.Vector3(0, 0, -10), scene);
+    camera.fov = 0.02;
+    camera.minZ = 0.1;
+    scene.activeCamera = camera;
+    probe = { material, camera };
+  }
+  const { material, camera } = probe;
   material.roughness = roughness;
-  material.albedoColor = new BABYLON.Color3(1, 1, 1);
-  sphere.material = material;
-  const camera = new BABYLON.FreeCamera('probe camera', new BABYLON.Vector3(0, 0, -10), scene);
-  camera.fov = 0.02;
-  camera.minZ = 0.1;
-  scene.activeCamera = camera;
   await scene.whenReadyAsync();
   const gl = engine._gl;
   const out = [];
