@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Install the node packages of the tests and the web viewer into build/node (or $1): the Khronos
-# glTF validator, three.js, esbuild (bundles the viewer) and puppeteer-core (drives Chromium in
-# the viewer's test). Idempotent: when everything is in place it only checks, in well under 1 s.
+# glTF validator, three.js, esbuild (bundles the viewer), puppeteer-core (drives Chromium in
+# the viewer's test) and Babylon.js (core and glTF loaders: the reference loader of the export's
+# EXT_lights_image_based, tests/test_babylon_ibl.py). Idempotent: when everything is in place it only checks, in well under 1 s.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 dest="${1:-$here/build/node}"
@@ -9,8 +10,10 @@ for tool in node npm; do
     command -v "$tool" >/dev/null || { echo "setup_node.sh: '$tool' not found (install Node.js and npm)" >&2; exit 2; }
 done
 # name@version pins: three's and esbuild's output is part of the committed behaviour; puppeteer-core
-# 24 is the last line that runs on Node.js 20 (25 needs 22).
-packages=(gltf-validator three@0.187.0 esbuild@0.28.2 puppeteer-core@24.43.1)
+# 24 is the last line that runs on Node.js 20 (25 needs 22). Babylon's core and loaders at the same
+# version (the loaders' newest; their peer babylonjs-gltf2interface with them).
+packages=(gltf-validator three@0.187.0 esbuild@0.28.2 puppeteer-core@24.43.1
+    @babylonjs/core@9.28.0 @babylonjs/loaders@9.28.0 babylonjs-gltf2interface@9.28.0)
 mkdir -p "$dest"
 missing=()
 for spec in "${packages[@]}"; do

@@ -4,8 +4,8 @@ Blender's own glTF exporter writes the file: the transfer is copied into tempora
 attributes `_PRT_T0`, `_PRT_T1`, ... (custom attributes it exports as VEC4 FLOAT accessors),
 rotated into glTF's Y-up frame; the PRT metadata and the lighting are added to the JSON chunk
 afterwards (glb). The user's attributes, selection and active object are restored in every
-case, and the file appears only when complete (temporary file renamed). docs/export.md is the
-format.
+case, and the file appears only when complete (temporary file renamed). The world's prefiltered
+cube map and irradiance go in EXT_lights_image_based (ibl). docs/export.md is the format.
 """
 
 import os
@@ -20,7 +20,8 @@ from ...core import rotation as _rotation
 from .. import storage
 from ..world import nodes as _nodes
 from ..world import projection as _world
-from . import glb
+from ..world.nodes import WorldError
+from . import glb, ibl
 
 ATTRIBUTE_PREFIX = "_PRT_T"
 EXTRAS_KEY = "PRT_lighting"
@@ -256,9 +257,11 @@ def _run_exporter(path, meshes):
         raise ExportError(f"the glTF exporter failed: {error}") from None
 
 
-def export_gltf(path, objects=None, scene=None):
+def export_gltf(path, objects=None, scene=None, environment_size=ibl.DEFAULT_SIZE):
     """Write the objects (default: the scene's baked meshes) to `path` (.glb); returns the path.
-    Raises ExportError (a ValueError) with a user-facing message; then no file is left."""
+    environment_size: the EXT_lights_image_based cube map's mip-0 face size (a power of two),
+    0 to leave the extension out. Raises ExportError (a ValueError) with a user-facing message;
+    then no file is left."""
     scene = bpy.context.scene if scene is None else scene
     if scene != bpy.context.scene:
         raise ExportError(f"only the current scene can be exported (not '{scene.name}'): switch to it first")
@@ -267,6 +270,12 @@ def export_gltf(path, objects=None, scene=None):
         raise ExportError("leave Edit Mode (or any other mode) to export")
     plan = _plan(objects, scene)
     world = world_extras(scene)
+    environment = None
+    if environment_size:
+        try:
+            environment = ibl.environment(scene, world, environment_size)
+        except (WorldError, ValueError) as error:
+            raise ExportError(f"the environment map cannot be made: {error}") from None
     _ensure_exporter()
     state = _state(plan)
     added = []
@@ -286,6 +295,8 @@ def export_gltf(path, objects=None, scene=None):
             raise ExportError("the glTF exporter did not write the file")
         document, chunks = glb.read(temp)
         _annotate(document, plan, world)
+        if environment is not None:
+            ibl.write(document, chunks, environment[0], environment[1], glb.CHUNK_BIN)
         glb.write(temp, document, chunks)
         os.replace(temp, path)
     except OSError as error:
