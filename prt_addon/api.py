@@ -198,14 +198,19 @@ def bake_status(obj: bpy.types.Object, reason: bool = False) -> str | tuple[str,
 
 
 def export_gltf(
-    path: str, objects: Sequence[bpy.types.Object] | None = None, scene: bpy.types.Scene | None = None
+    path: str,
+    objects: Sequence[bpy.types.Object] | None = None,
+    scene: bpy.types.Scene | None = None,
+    environment_size: int = 128,
 ) -> str:
     """Write the baked objects (default: every baked mesh of the scene) and the scene's lighting
     to a binary glTF file `path` (.glb) through Blender's glTF exporter; returns the path.
     The transfer, rotated into glTF's Y-up frame, is in the attributes _PRT_T0, _PRT_T1, ...,
     the metadata and the lighting in the extras "PRT_lighting" (docs/export.md). The user's data,
     selection and active object are left as they were. Raises ValueError with a clear message
-    (nothing baked, a stale bake, no lighting, a path that cannot be written); no file is left."""
+    (nothing baked, a stale bake, no lighting, a path that cannot be written); no file is left.
+    environment_size: the face size (a power of two up to 256) of the world's prefiltered cube map
+    in EXT_lights_image_based, for viewers without PRT; 0 leaves the extension out."""
     from .blender.export import gltf as _gltf
 
-    return _gltf.export_gltf(path, objects, scene)
+    return _gltf.export_gltf(path, objects, scene, environment_size)

@@ -140,7 +140,22 @@ def test_bad_environment_size_is_refused(forest_scene, tmp_path):
     for size in (96, -4, 2.5):
         with pytest.raises(ValueError, match="power of two"):
             gltf.export_gltf(str(tmp_path / "bad.glb"), environment_size=size)
+    with pytest.raises(ValueError, match="at most 256"):
+        gltf.export_gltf(str(tmp_path / "bad.glb"), environment_size=512)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_operator_writes_the_chosen_environment_size(forest_scene, bpy_module, tmp_path):
+    from prt_addon.blender.export import glb
+
+    for choice, mips in (("0", 0), ("64", 7)):
+        path = str(tmp_path / f"op{choice}.glb")
+        assert bpy_module.ops.prt.export_gltf(filepath=path, environment_size=choice) == {"FINISHED"}
+        document, _chunks = glb.read(path)
+        lights = document.get("extensions", {}).get("EXT_lights_image_based", {}).get("lights", [])
+        assert len(lights) == (1 if mips else 0)
+        if mips:
+            assert lights[0]["specularImageSize"] == 64 and len(lights[0]["specularImages"]) == mips
 
 
 def test_constant_world_environment(empty_scene, bpy_module, tmp_path):

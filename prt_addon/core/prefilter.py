@@ -56,9 +56,14 @@ MIN_SOURCE = 32  # the coarse mips are summed over at least this source resoluti
 TINY = 1e-30  # source values below this (times the texel's solid angle) count as 0
 
 
+MAX_SIZE = 256  # the prefilter's cost grows as size^4: 256 takes half a minute (docs/export.md)
+
+
 def check_size(size: int) -> int:
     if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1 or size & (size - 1):
         raise ValueError(f"the cube map size must be a power of two, got {size!r}")
+    if size > MAX_SIZE:
+        raise ValueError(f"the cube map size must be at most {MAX_SIZE}, got {size}")
     return int(size)
 
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from ...core import prefilter, rgbd_png, sh
 from ..world import nodes as _nodes
-from ..world.pixels import _NeedsRender, read_image_pixels, render_world
+from ..world.pixels import NeedsRender, read_image_pixels, render_world
 
 EXTENSION = "EXT_lights_image_based"
 DEFAULT_SIZE = 128  # mip 0 face size; the chain goes down to 1 texel
@@ -65,7 +65,7 @@ def _radiance_source(scene, size):
             pixels = read_image_pixels(source.image)  # float32, not copied: large HDRIs stay cheap
             q = source.mapping.sh_rotation() if source.mapping is not None else np.eye(3)
             return pixels[:, :, :3], None, q, float(source.strength)
-        except _NeedsRender:
+        except NeedsRender:
             pass
     # Cycles renders the world as the scene sees it: Mapping and strength included.
     return render_world(scene, 2 * size), None, np.eye(3), 1.0

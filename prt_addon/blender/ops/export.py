@@ -21,6 +21,19 @@ class PRT_OT_export_gltf(bpy.types.Operator, ExportHelper):
         description="Export only the selected objects (else every baked mesh of the scene)",
         default=False,
     )
+    environment_size: bpy.props.EnumProperty(
+        name="Environment Map",
+        description=(
+            "Size of the world's prefiltered cube map written for other viewers "
+            "(EXT_lights_image_based: GGX mips and 9 irradiance coefficients); None leaves it out"
+        ),
+        items=[
+            ("0", "None", "No EXT_lights_image_based"),
+            ("64", "64 px", "Faces of 64 x 64 at mip 0 (fastest)"),
+            ("128", "128 px", "Faces of 128 x 128 at mip 0"),
+        ],
+        default=str(gltf.ibl.DEFAULT_SIZE),
+    )
 
     @classmethod
     def poll(cls, context):
@@ -29,7 +42,7 @@ class PRT_OT_export_gltf(bpy.types.Operator, ExportHelper):
     def execute(self, context):
         objects = list(context.selected_objects) if self.selected_only else None
         try:
-            path = gltf.export_gltf(self.filepath, objects, context.scene)
+            path = gltf.export_gltf(self.filepath, objects, context.scene, int(self.environment_size))
         except ValueError as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}

@@ -36,7 +36,7 @@ _BYTE_CONVERSIONS = {
 _RAW_COLORSPACES = ("Non-Color", "scene_linear")
 
 
-class _NeedsRender(Exception):
+class NeedsRender(Exception):
     """Internal: the direct path cannot represent this world exactly; render it instead."""
 
 
@@ -69,7 +69,7 @@ def read_image_pixels(image):
     Float images: Image.pixels is already scene linear (Blender converts float buffers on load;
     measured equal to what Cycles renders for every colour space). 8-bit images: Image.pixels
     holds the encoded values k/255; they are converted with Blender's own conversion (see
-    _BYTE_CONVERSIONS), or _NeedsRender is raised for other colour spaces.
+    _BYTE_CONVERSIONS), or NeedsRender is raised for other colour spaces.
     """
     width, height = (int(v) for v in image.size)
     if width * height == 0 or not image.has_data:
@@ -87,7 +87,7 @@ def read_image_pixels(image):
         return pixels
     method = _BYTE_CONVERSIONS.get(colorspace)
     if method is None:
-        raise _NeedsRender(f"8-bit image '{image.name}' is in colour space '{colorspace}'")
+        raise NeedsRender(f"8-bit image '{image.name}' is in colour space '{colorspace}'")
     if channels < 3:
         pixels = np.repeat(pixels[:, :, :1], 3, axis=2)
         channels = 3

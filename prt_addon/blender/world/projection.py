@@ -22,7 +22,7 @@ from ...core import lights as core_lights
 from ...core import projection, resample, rotation, sh
 from . import light_split
 from .nodes import WorldError, WorldSource, _render_source, analyse_world, live_sh_rotation
-from .pixels import _NeedsRender, read_image_pixels, render_world
+from .pixels import NeedsRender, read_image_pixels, render_world
 
 
 SH_KEY = "prt_world_sh"  # unrotated (image-frame) coefficients, flat, index 3 * i + channel
@@ -89,7 +89,7 @@ def project(scene, order, force_render=False, split_lights=None, threshold=None,
     if source.kind == "IMAGE":
         try:
             pixels = read_image_pixels(source.image)
-        except _NeedsRender as why:
+        except NeedsRender as why:
             source = _render_source(scene.world, None, str(why))
     truncation = diffuse_truncation = 0.0
     source_size = projected_size = (0, 0)
