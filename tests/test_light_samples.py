@@ -106,10 +106,13 @@ def test_samples_round_trip_and_old_storage_loads_as_discs(wide_image):
     for bad in (samples[:-1], samples + [0.0], [1.5] + samples[1:], [np.nan] * len(samples)):
         with pytest.raises(ValueError):
             lights.lights_from_array(values, bad)
-    negative = list(samples)
-    negative[4] = -1.0  # the first sample's weight
-    with pytest.raises(ValueError):
-        lights.lights_from_array(values, negative)
+    for index in (1, 5):  # the first light's shadow angle, its first sample's weight
+        negative = list(samples)
+        negative[index] = -1.0
+        with pytest.raises(ValueError):
+            lights.lights_from_array(values, negative)
+    assert [b.shadow_angle for b in back] == pytest.approx([light_samples.shadow_angle(a) for a in found], rel=1e-14)
+    assert [light_samples.shadow_angle(b) for b in old] == [b.angle for b in old]
     with pytest.raises(ValueError):
         lights.extract_lights(wide_image, samples=-1)
 
@@ -132,3 +135,21 @@ def test_rotated_samples_match_the_samples_of_the_rotated_image():
     )
     np.testing.assert_allclose(rotated[0].samples, found[0].samples @ rotation_z(-np.pi / 2).T, atol=1e-15)
     np.testing.assert_allclose(rotated[0].direction, found_rolled[0].direction, atol=1e-9)
+
+
+@pytest.mark.parametrize("degrees", [2.0, 10.0, 30.0])
+def test_shadow_angle_of_a_uniform_cap_is_its_radius(degrees):
+    image = sky_with_discs([(WIDE, np.radians(degrees), 50.0)], height=HEIGHT, width=WIDTH)
+    _, found = lights.extract_lights(image, threshold=10.0)
+    assert light_samples.shadow_angle(found[0]) == pytest.approx(np.radians(degrees), rel=0.04)
+    assert light_samples.shadow_angle(found[0]) <= found[0].angle
+
+
+def test_shadow_angle_of_a_sun_in_its_halo_is_the_sun():
+    """A 0.5 degree sun holding most of the power inside a 10 degree halo: the moment radius is
+    the halo's spread, the power-median radius about the sun's (the viewport's penumbra)."""
+    sun = np.radians(0.5)
+    image = sky_with_discs([(WIDE, np.radians(10.0), 5.0), (unit(22.0, 13.0), sun, 5e4)])
+    _, found = lights.extract_lights(image, threshold=2.0)
+    assert len(found) == 1 and found[0].angle > 3.0 * sun
+    assert light_samples.shadow_angle(found[0]) == pytest.approx(sun, rel=0.2)

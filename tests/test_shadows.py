@@ -299,3 +299,19 @@ def test_sampled_light_cosine_is_the_sum_over_its_samples(bpy_module, ground_sce
     ground.data["prt_bake"]["shadows"] = True
     far = np.array([v.co[0] > 1.0 for v in ground.data.vertices])
     np.testing.assert_allclose(api.shade(ground, scene)[far], np.tile(want, (far.sum(), 1)), rtol=1e-5, atol=1e-6)
+
+
+def test_the_shadow_filter_uses_the_shadow_angle(bpy_module, ground_scene):
+    """A light with samples all along its direction and a shadow angle of 0.01 draws the image of
+    a plain disc light of angle 0.01, although its moment radius is 0.3 (a sun in a halo)."""
+    from prt_addon.core.lights import Light
+
+    scene, _ground = ground_scene
+    d = np.array([0.35, -0.25, 1.0]) / np.linalg.norm([0.35, -0.25, 1.0])
+    set_suns(scene, [sun(d, angle=0.01)])
+    disc = render(scene)
+    halo = Light(d, POWER, 0.3, samples=np.tile(d, (4, 1)), weights=np.full(4, 0.25), shadow_angle=0.01)
+    set_suns(scene, [halo])
+    np.testing.assert_allclose(render(scene), disc, rtol=1e-6, atol=1e-7)
+    set_suns(scene, [Light(d, POWER, 0.3, samples=np.tile(d, (4, 1)), weights=np.full(4, 0.25))])
+    assert np.abs(render(scene) - disc).max() > 0.05  # the 0.3 radius softens the box's shadow

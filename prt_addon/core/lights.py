@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from .light_samples import SAMPLES_PER_LIGHT, region_samples, samples_from_array
+from .light_samples import SAMPLES_PER_LIGHT, median_angle, region_samples, samples_from_array
 from .projection import as_rgb_image, column_azimuths, row_elevations
 from .light_visibility import disc_directions, light_cosines, light_irradiance, light_visibility  # noqa: F401 (the lights' shading)
 
@@ -39,7 +39,8 @@ LUMINANCE_ROWS = 16  # rows converted to float64 at a time (stays in cache: meas
 class Light:
     """A light: unit direction, RGB power (integral of excess radiance), angular radius of the
     disc with the same mean cosine; optionally samples (k, 3) unit directions with weights (k,)
-    summing to 1 (core.light_samples), which the shading uses instead of the disc when given."""
+    summing to 1 (core.light_samples), which the shading uses instead of the disc when given, and
+    shadow_angle, the radius the viewport's shadow filter uses (None: angle)."""
 
     direction: np.ndarray
     power: np.ndarray
@@ -48,6 +49,7 @@ class Light:
     texels: int = 0
     samples: np.ndarray | None = None
     weights: np.ndarray | None = None
+    shadow_angle: float | None = None
     luminance: float = field(init=False)
 
     def __post_init__(self):
@@ -55,6 +57,7 @@ class Light:
         self.power = np.asarray(self.power, dtype=np.float64).reshape(3)
         self.angle = float(self.angle)
         self.luminance = float(_luma(self.power))
+        self.shadow_angle = None if self.shadow_angle is None else float(self.shadow_angle)
         if (self.samples is None) != (self.weights is None):
             raise ValueError("a light's samples and weights come together")
         if self.samples is not None:
@@ -295,19 +298,22 @@ def extract_lights(
     lights = []
     for r in chosen:
         rho = min(1.0, moment_length[r] / region_lum[r])
-        sample_dirs = sample_weights = None
+        sample_dirs = sample_weights = shadow = None
+        direction = region_moment[r] / moment_length[r]
         if samples > 0:
             mine = np.flatnonzero(region == r)
             sample_dirs, sample_weights = region_samples(columns[mine, 3:6], _luma(columns[mine, :3]), samples)
+            shadow = median_angle(columns[mine, 3:6], _luma(columns[mine, :3]), direction)
         lights.append(
             Light(
-                direction=region_moment[r] / moment_length[r],
+                direction=direction,
                 power=region_power[r],
                 angle=2.0 * np.arcsin(np.sqrt(1.0 - rho)),
                 solid_angle=float(region_solid[r]),
                 texels=int(region_texels[r]),
                 samples=sample_dirs,
                 weights=sample_weights,
+                shadow_angle=shadow,
             )
         )
     return residual, lights
@@ -344,6 +350,7 @@ def lights_from_array(values: npt.ArrayLike, samples: npt.ArrayLike | None = Non
                 texels=0,
                 samples=None if sampled is None else sampled[0],
                 weights=None if sampled is None else sampled[1],
+                shadow_angle=None if sampled is None else sampled[2],
             )
         )
     return lights
@@ -362,6 +369,7 @@ def rotate_lights(lights: Iterable[Light], rotation: npt.ArrayLike) -> list[Ligh
             texels=light.texels,
             samples=None if light.samples is None else light.samples @ rotation.T,
             weights=None if light.weights is None else light.weights.copy(),
+            shadow_angle=light.shadow_angle,
         )
         for light in lights
     ]

@@ -7,12 +7,15 @@ term as core.light_visibility.light_cosines defines it: sum_j w_j max(0, n.s_j) 
 light's orthographic depth map (shadows.py): a blocker search over the widest penumbra the disc
 can throw, then percentage-closer filtering with the penumbra radius (d_receiver - d_blocker) *
 tan(angle), both over Vogel-disc taps, with a depth bias from the receiver's slope. It is one
-map along the light's mean direction, filtered over the disc of the light's moment radius: for a
-wide light with samples the shadow is that disc's, where api.shade traces each sample.
+map along the light's mean direction, filtered over a disc of the light's shadow angle
+(core.light_samples.shadow_angle: the power-median radius of its texels, at most the moment
+radius): for a wide light the shadow is that disc's, where api.shade traces each sample.
 """
 
 import gpu
 import numpy as np
+
+from ...core.light_samples import shadow_angle
 
 MAX_SUNS = 8
 MAX_SAMPLES = 16  # samples per light in the cosine term (core.light_samples.SAMPLES_PER_LIGHT)
@@ -131,7 +134,7 @@ def add_suns(info, lights, vertex_source, attr_index):
 
 def suns_ubo_bytes(lights, maps, matrix_world):
     """std140 bytes of PRTSuns for one object: its normal matrix, and per light the local ->
-    (texel x, texel y, depth) rows, the direction, P / pi, (texel size, tan angle, resolution)
+    (texel x, texel y, depth) rows, the direction, P / pi, (texel size, tan shadow angle, resolution)
     and the samples (direction, weight; the first MAX_SAMPLES, their weights renormalised)."""
     mw = np.asarray(matrix_world, dtype=np.float64)
     data = np.zeros((3 + 6 * MAX_SUNS + MAX_SUNS * MAX_SAMPLES, 4))
@@ -141,7 +144,8 @@ def suns_ubo_bytes(lights, maps, matrix_world):
         base = 3 + 3 * MAX_SUNS
         data[base + l, :3] = light.direction / np.linalg.norm(light.direction)
         data[base + MAX_SUNS + l, :3] = light.power / np.pi
-        data[base + 2 * MAX_SUNS + l, :3] = (shadow.texel, np.tan(min(light.angle, 1.5)), shadow.resolution)
+        penumbra = min(shadow_angle(light), 1.5)
+        data[base + 2 * MAX_SUNS + l, :3] = (shadow.texel, np.tan(penumbra), shadow.resolution)
         first = base + 3 * MAX_SUNS + MAX_SAMPLES * l
         if light.samples is None:
             data[first] = (*data[base + l, :3], 1.0)
