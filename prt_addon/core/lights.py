@@ -28,8 +28,8 @@ from .light_visibility import disc_directions, light_cosines, light_irradiance, 
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 MAX_LIGHTS = 8
-MEAN_FACTOR = 8.0  # threshold rule: see auto_threshold
-COMPACT_FRACTION = 0.01
+MEAN_FACTOR = 3.0  # threshold rule: see auto_threshold
+COMPACT_FRACTION = 0.1
 MIN_SHARE = 0.005  # regions with less of the world's luminance power stay in the residual
 FLOATS_PER_LIGHT = 7  # direction 3, power 3, angle 1
 LUMINANCE_ROWS = 16  # rows converted to float64 at a time (stays in cache: measured fastest)
@@ -116,11 +116,11 @@ def _world_power(lum, solid):  # sum of lum * texel solid angle
     return float(lum.sum(axis=1) @ solid)
 
 
-def _threshold(lum, solid, world_power):
-    threshold = MEAN_FACTOR * world_power / (4.0 * np.pi)
+def _threshold(lum, solid, world_power, mean_factor=MEAN_FACTOR, compact_fraction=COMPACT_FRACTION):
+    threshold = mean_factor * world_power / (4.0 * np.pi)
     rows, cols = np.nonzero(lum > threshold)
     texel_solid = solid[rows]
-    budget = COMPACT_FRACTION * 4.0 * np.pi
+    budget = compact_fraction * 4.0 * np.pi
     if texel_solid.sum() <= budget:
         return threshold
     values = lum[rows, cols]
@@ -131,18 +131,22 @@ def _threshold(lum, solid, world_power):
     return max(threshold, float(values[order[first]]))
 
 
-def auto_threshold(pixels: npt.ArrayLike) -> float:
+def auto_threshold(
+    pixels: npt.ArrayLike, *, mean_factor: float = MEAN_FACTOR, compact_fraction: float = COMPACT_FRACTION
+) -> float:
     """Luminance threshold T above which texels are split off as lights.
 
-    T = max(8 * mean, T_compact): mean is the solid-angle-weighted mean luminance of the image
+    T = max(3 * mean, T_compact): mean is the solid-angle-weighted mean luminance of the image
     (pixel policy of the projection applied), T_compact the smallest value such that the texels
-    brighter than it cover at most 1 % of the sphere (a cap of 11.5 degrees radius). A texel is a
-    light only if it is 8 times brighter than the average sky, and the lights stay compact. A
-    uniform or one-colour image gives T = 8 * its luminance, so no texel exceeds it.
+    brighter than it cover at most 10 % of the sphere (a cap of 37 degrees radius). A texel is a
+    light only if it is 3 times brighter than the average sky, and the lights stay bounded (their
+    samples model a wide region: core.light_samples). A uniform or one-colour image gives
+    T = 3 * its luminance, so no texel exceeds it. mean_factor and compact_fraction replace the
+    3 and the 10 % (to measure the rule; extract_lights always uses the constants).
     """
     rgb = as_rgb_image(pixels)
     lum, solid = _luminance(rgb), _texel_geometry(*rgb.shape[:2])[0]
-    return _threshold(lum, solid, _world_power(lum, solid))
+    return _threshold(lum, solid, _world_power(lum, solid), mean_factor, compact_fraction)
 
 
 def _is_real(value):
