@@ -159,6 +159,7 @@ def brute_force(points, nodes, chunk=48):
 def run(bpy, cfg, cache, log):
     """Measure the split section; cache holds packed references of an earlier run (updated)."""
     import accuracy_scenes as acc_scenes
+    import accuracy_split_parts
 
     from prt_addon import api
 
@@ -214,6 +215,12 @@ def run(bpy, cfg, cache, log):
                     }
             if hdri in SWEEP_HDRIS:
                 row["sweep"] = sweep(scene, objs, cy, by)
+                rgb = hdri_pixels(bpy, hdri) if rgb is None else rgb
+                row["parts"] = accuracy_split_parts.parts(
+                    scene, objs, points, rgb, by, ORDERS, brute_force, quadrature_nodes, COARSE
+                )
+            rgb = hdri_pixels(bpy, hdri) if rgb is None else rgb
+            row["rule"] = accuracy_split_parts.rule(scene, objs, rgb, cy, ORDERS)
             api.project_world(scene, max(ORDERS), split_lights=True)
             w = scene.prt_world
             row["lights"] = {
@@ -235,8 +242,14 @@ def run(bpy, cfg, cache, log):
 
 
 def sweep(scene, objs, cy, by):
-    """Errors at each (threshold, max lights) of SWEEP (threshold 0: automatic), both orders."""
+    """Errors at each (threshold, max lights) of SWEEP (threshold 0: automatic), both orders, with
+    the lights shaded by their samples and (key "discs") as uniform discs of the moment radius."""
+    import dataclasses
+
+    import accuracy_split_parts
+
     from prt_addon import api
+    from prt_addon.blender.world import light_split
 
     rows = []
     for threshold, max_lights in SWEEP:
@@ -244,7 +257,10 @@ def sweep(scene, objs, cy, by):
         for n in ORDERS:
             api.project_world(scene, n, split_lights=True, threshold=threshold, max_lights=max_lights)
             y = np.concatenate([api.shade(o, scene) for o in objs]) @ LUMA
+            discs = [dataclasses.replace(lt, samples=None, weights=None) for lt in light_split.stored(scene)]
+            yd = accuracy_split_parts.shade_luminance(objs, scene, lights=discs)
             row[str(n)] = {"cycles": rel_err(y, cy), "brute": rel_err(y, by)}
+            row[str(n)]["discs"] = {"cycles": rel_err(yd, cy), "brute": rel_err(yd, by)}
         row.update(count=int(scene.prt_world.light_count), share=float(scene.prt_world.light_share))
         row["angles_deg"] = [math.degrees(lt["angle"]) for lt in api.world_lights(scene)]
         rows.append(row)

@@ -37,6 +37,33 @@ def summary(split):
     return met, total, misses
 
 
+def rule_table(split):
+    """Markdown of the rule sweep (rows "rule" of every HDRI), or "" when it was not measured."""
+    from prt_addon.core import lights as core_lights
+
+    cells = {}
+    for scene, res in split["scenes"].items():
+        for hdri, row in res["rows"].items():
+            for r in row.get("rule", []):
+                key = (r["mean_factor"], r["compact_fraction"])
+                cells.setdefault(key, []).append((scene, hdri, r))
+    rows = []
+    for (m, c), found in cells.items():
+        met = sum(r[str(n)] <= TARGET[n] for _, _, r in found for n in split["orders"])
+        worst = [max(r[str(n)] for _, _, r in found) for n in split["orders"]]
+        court = {scene: r for scene, hdri, r in found if hdri == "courtyard"}
+        product = m == core_lights.MEAN_FACTOR and c == core_lights.COMPACT_FRACTION
+        label = f"{m:g}, {100 * c:g} %" + (" (**the rule**)" if product else "")
+        court_cells = [" / ".join(pct(r[str(n)]) for r in court.values()) for n in split["orders"]]
+        t = " / ".join(f"{r['value']:.2f}" for r in list(court.values())[:1])
+        rows.append([label, f"{met} of {len(found) * len(split['orders'])}", *map(pct, worst), t, *court_cells])
+    if not rows:
+        return ""
+    header = ["m, c", "targets met"] + [f"worst o{n}, %" for n in split["orders"]] + ["courtyard T"]
+    header += [f"courtyard o{n} (" + " / ".join(split["scenes"]) + "), %" for n in split["orders"]]
+    return table(header, rows)
+
+
 def section(results, text):
     """Markdown of the section; `text` is the hand-written conclusion (accuracy_text.md)."""
     split = results.get("split")
@@ -48,8 +75,8 @@ def section(results, text):
         "The same scenes, baked once at order 8 with "
         f"{split['prt_samples']} Fibonacci directions; `api.shade` at orders 4 and 8 (order 4: the first "
         "16 coefficients of the same transfer), after `api.project_world(split_lights=False)` and "
-        "`split_lights=True` (automatic threshold, at most 4 lights, 16 rays over each light's disc: "
-        "[lights.md](lights.md)). Error: relative RMSE of luminance over all vertices, as above. "
+        "`split_lights=True` (automatic threshold, at most 4 lights, each shaded by 16 power-weighted "
+        "samples of its own texels, one ray each: [lights.md](lights.md)). Error: relative RMSE of luminance over all vertices, as above. "
         "`accuracy_report.py --only-split` measures this section alone; the Cycles and brute-force "
         "references are cached in `benchmarks/accuracy_references.json` and reused while the scenes "
         "and settings match.\n"
@@ -121,14 +148,46 @@ def section(results, text):
             for r in row["sweep"]:
                 t = "automatic" if r["threshold"] == 0 else f"{r['threshold']:g}"
                 wide = f"{max(r['angles_deg']):.0f}" if r["angles_deg"] else "-"
-                errors = [f"{pct(r[str(n)]['cycles'])} / {pct(r[str(n)]['brute'])}" for n in split["orders"]]
+                errors = []
+                for n in split["orders"]:
+                    e = r[str(n)]
+                    errors += [f"{pct(e['cycles'])} / {pct(e['brute'])}", pct(e["discs"]["cycles"])]
                 cells.append([t, r["max_lights"], r["count"], pct(r["share"], 0), wide, *errors])
             a(
                 f"**{scene} / {hdri}: other thresholds and light counts** (error against Cycles / against the "
-                "brute force, %; widest light's radius in degrees):\n"
+                "brute force, %, with the lights' samples; *discs*: the same lights shaded as uniform discs "
+                "of their moment radius, against Cycles; widest light's radius in degrees):\n"
             )
             header = ["threshold", "max lights", "lights", "share, %", "widest, deg"]
-            a(table(header + [f"order {n}" for n in split["orders"]], cells) + "\n")
+            for n in split["orders"]:
+                header += [f"order {n}", f"o{n} discs"]
+            a(table(header, cells) + "\n")
+            if row.get("parts"):
+                cells = []
+                for r in row["parts"]:
+                    t = {0.0: "automatic", "old": "old rule (8 mean, 1 %)"}.get(r["threshold"])
+                    t = t or f"{r['threshold']:g}"
+                    wide = f"{max(r['angles_deg']):.0f}" if r["angles_deg"] else "-"
+                    sky = [pct(r["sky"][str(n)], 2) for n in split["orders"]]
+                    cells.append([t, f"{r['value']:.2f}", r["lights"], wide, *sky])
+                    cells[-1] += [pct(r["lights_samples"], 2), pct(r["lights_discs"], 2)]
+                a(
+                    f"**{scene} / {hdri}: the error by part** (each part of `api.shade` against the brute force "
+                    "of that part alone: the SH of the residual sky against the quadrature of the residual "
+                    "image, the lights against the quadrature of their excess texels one by one; RMS over "
+                    "the vertices / RMS of the whole image's brute force, %):\n"
+                )
+                header = ["threshold", "T", "lights", "widest, deg"]
+                header += [f"sky, order {n}" for n in split["orders"]] + ["lights, samples", "lights, discs"]
+                a(table(header, cells) + "\n")
+    rule = rule_table(split)
+    if rule:
+        a(
+            "**Other constants of the threshold rule** T = max(m x mean, T_compact(c)) (c: the share of the "
+            "sphere the bright texels may cover), every scene and HDRI, 4 lights, error against Cycles; "
+            "the product's rule is marked:\n"
+        )
+        a(rule + "\n")
     met, total, misses = summary(split)
     a(
         f"Targets met: **{met} of {total}** (scene x HDRI x order)"

@@ -79,15 +79,23 @@ def project_world(
 def world_lights(scene: bpy.types.Scene | None = None) -> list[dict[str, Any]]:
     """The split lights of the scene in world space, with the Mapping rotation now: a list of
     {"direction": (3,) unit array, "power": (3,) RGB array (irradiance on a surface facing the
-    light, Background strength included), "angle": disc radius in radians}, strongest first;
-    [] when the projection has none (split off, a colour world, no bright source)."""
+    light, Background strength included), "angle": disc radius in radians, "samples": (k, 3)
+    unit directions over the light's own texels or None, "weights": (k,) their shares of its
+    power (sum 1) or None}, strongest first; [] when the projection has none (split off, a
+    colour world, no bright source). The shading uses the samples when there are some."""
     import bpy
 
     from .blender.display import lighting as _lighting
 
     lights = _lighting.world_lights(bpy.context.scene if scene is None else scene)
     return [
-        {"direction": light.direction.copy(), "power": light.power.copy(), "angle": float(light.angle)}
+        {
+            "direction": light.direction.copy(),
+            "power": light.power.copy(),
+            "angle": float(light.angle),
+            "samples": None if light.samples is None else light.samples.copy(),
+            "weights": None if light.weights is None else light.weights.copy(),
+        }
         for light in lights
     ]
 

@@ -145,6 +145,9 @@ def test_export_round_trip(baked, bpy_module, tmp_path):
     assert len(world["lights"]) == 1
     assert np.allclose(world["lights"][0]["direction"], [0.0, 0.8, -0.6])
     assert np.allclose(world["lights"][0]["power"], [3.0, 2.0, 1.0]) and world["lights"][0]["angle"] == 0.05
+    # A light without samples (its disc): null samples, the shadow filter's disc is its angle.
+    assert world["lights"][0]["samples"] is None and world["lights"][0]["weights"] is None
+    assert world["lights"][0]["shadow_angle"] == 0.05
     nodes = {n["name"]: n for n in document["nodes"]}
     for name, order, domain in (("sphere", 3, "POINT"), ("grid", 3, "POINT"), ("cube", 4, "CORNER")):
         obj = objs[name]

@@ -121,6 +121,33 @@ def test_projection_without_lights_key_still_loads_and_shades(bpy_module, empty_
     assert without.mean() < with_lights.mean()
 
 
+def test_samples_survive_saving_and_lights_stored_without_them_are_discs(bpy_module, empty_scene, tmp_path):
+    """The samples are stored next to the lights and come back after a save; a file whose
+    projection predates them (no samples key) loads the same lights as discs."""
+    from prt_addon import api
+    from prt_addon.blender.world import light_split
+
+    image_world(bpy_module, empty_scene, sunny_image(64, 128))
+    api.project_world(empty_scene, 4)
+    before = api.world_lights(empty_scene)
+    assert before and before[0]["samples"] is not None
+    np.testing.assert_allclose(before[0]["weights"].sum(), 1.0, rtol=1e-12)
+    path = str(tmp_path / "samples.blend")
+    bpy_module.ops.wm.save_as_mainfile(filepath=path)
+    bpy_module.ops.wm.open_mainfile(filepath=path)
+    after = api.world_lights(bpy_module.context.scene)
+    for a, b in zip(before, after, strict=True):
+        np.testing.assert_allclose(a["samples"], b["samples"], atol=1e-12)
+        np.testing.assert_allclose(a["weights"], b["weights"], rtol=1e-12)
+    scene = bpy_module.context.scene
+    del scene[light_split.SAMPLES_KEY]  # as a projection stored before the samples
+    old = api.world_lights(scene)
+    assert len(old) == len(before) and all(light["samples"] is None for light in old)
+    np.testing.assert_allclose(old[0]["direction"], before[0]["direction"], atol=1e-12)
+    scene[light_split.SAMPLES_KEY] = [3.0, 1.0]  # unreadable samples: the lights still load, as discs
+    assert [light["samples"] for light in api.world_lights(scene)] == [None] * len(before)
+
+
 def test_light_is_shadowed_by_the_scene(bpy_module, empty_scene):
     """Under a light straight above, the ground below the box is dark and the rest lit."""
     from prt_addon import api

@@ -272,3 +272,46 @@ def test_viewport_callback_with_suns_matches_render_view(bpy_module, ground_scen
     np.testing.assert_allclose(standard[mask, :3], srgb, atol=1.5 / 255)
     dark = linear[mask, 0] < SKY[0] + 0.5 * POWER[0] / np.pi
     assert 100 < dark.sum() < mask.sum() - 1000  # the shadows are in the picture
+
+
+def test_sampled_light_cosine_is_the_sum_over_its_samples(bpy_module, ground_scene):
+    """A light with samples, some below the ground's horizon: far from the box the ground shows
+    sky + P/pi sum_j w_j max(0, s_j . z), as core.lights.light_irradiance and api.shade give."""
+    from prt_addon.core.lights import Light, light_irradiance
+
+    scene, ground = ground_scene
+    samples = np.array([[0.9, 0.0, 0.3], [0.95, 0.1, -0.2], [0.8, -0.3, 0.5], [1.0, 0.0, 0.05]])
+    samples /= np.linalg.norm(samples, axis=1, keepdims=True)
+    weights = np.array([0.4, 0.3, 0.2, 0.1])
+    mean = weights @ samples
+    light = Light(mean / np.linalg.norm(mean), POWER, 0.3, samples=samples, weights=weights)
+    set_suns(scene, [light])
+    image = render(scene)
+    cosine = weights @ np.maximum(samples[:, 2], 0.0)
+    want = SKY + POWER / np.pi * cosine
+    np.testing.assert_allclose(light_irradiance([[0.0, 0.0, 1.0]], [light])[0], POWER / np.pi * cosine, rtol=1e-12)
+    points = grid_points(3.8)
+    points = points[points[:, 0] > 1.0]  # the light is towards +X: the box's shadow falls to -X
+    rows, cols = ground_pixels(scene, points)
+    np.testing.assert_allclose(image[rows, cols, :3], np.tile(want, (len(points), 1)), rtol=1e-5, atol=1e-6)
+    import prt_addon.api as api
+
+    ground.data["prt_bake"]["shadows"] = True
+    far = np.array([v.co[0] > 1.0 for v in ground.data.vertices])
+    np.testing.assert_allclose(api.shade(ground, scene)[far], np.tile(want, (far.sum(), 1)), rtol=1e-5, atol=1e-6)
+
+
+def test_the_shadow_filter_uses_the_shadow_angle(bpy_module, ground_scene):
+    """A light with samples all along its direction and a shadow angle of 0.01 draws the image of
+    a plain disc light of angle 0.01, although its moment radius is 0.3 (a sun in a halo)."""
+    from prt_addon.core.lights import Light
+
+    scene, _ground = ground_scene
+    d = np.array([0.35, -0.25, 1.0]) / np.linalg.norm([0.35, -0.25, 1.0])
+    set_suns(scene, [sun(d, angle=0.01)])
+    disc = render(scene)
+    halo = Light(d, POWER, 0.3, samples=np.tile(d, (4, 1)), weights=np.full(4, 0.25), shadow_angle=0.01)
+    set_suns(scene, [halo])
+    np.testing.assert_allclose(render(scene), disc, rtol=1e-6, atol=1e-7)
+    set_suns(scene, [Light(d, POWER, 0.3, samples=np.tile(d, (4, 1)), weights=np.full(4, 0.25))])
+    assert np.abs(render(scene) - disc).max() > 0.05  # the 0.3 radius softens the box's shadow

@@ -1,7 +1,10 @@
-"""Shading by the split lights: rays over a light's disc, their visibility, and E/pi per point.
+"""Shading by the split lights: rays over a light's disc or samples, their visibility, E/pi.
 
 A light is a disc of angular radius `angle` about `direction` (core.lights.Light); a point sees
-power / pi * max(0, n . s) * V of it, V the fraction of rays over the disc that are not occluded.
+power / pi * C * V of it. Without samples, C = max(0, n . s) and V is the fraction of rays over
+the disc that are not occluded. With samples s_j, weights w_j (core.light_samples), C = sum_j w_j
+max(0, n . s_j) and V = sum_j w_j max(0, n . s_j) V_j / C, one ray per sample: the product is
+the power-weighted sum over the light's own texels, sum_j w_j max(0, n . s_j) V_j.
 """
 
 from __future__ import annotations
@@ -60,20 +63,32 @@ def _unit_rows(vectors):
     return np.divide(v, length[:, None], out=np.zeros_like(v), where=ok[:, None])
 
 
+def light_cosines(normals: npt.ArrayLike, lights: Sequence[Light]) -> np.ndarray:
+    """(P, L) cosine term C of each light: max(0, n . s), or sum_j w_j max(0, n . s_j) over its
+    samples. Zero normals give 0."""
+    normals = _unit_rows(normals)
+    out = np.zeros((len(normals), len(lights)))
+    for index, light in enumerate(lights):
+        if light.samples is None:
+            out[:, index] = np.maximum(0.0, matmul_serial(normals, light.direction))
+        else:
+            out[:, index] = np.maximum(0.0, matmul_serial(normals, light.samples.T)) @ light.weights
+    return out
+
+
 def light_irradiance(
     normals: npt.ArrayLike, lights: Sequence[Light], visibility: npt.ArrayLike | None = None
 ) -> np.ndarray:
-    """(P, 3) radiance shown under the lights: sum_l power_l / pi * max(0, n . s_l) * V[:, l].
+    """(P, 3) radiance shown under the lights: sum_l power_l / pi * C[:, l] * V[:, l].
 
     That is E / pi, the unit of the SH shading sum_i L_i t_i (transfer max(0, n . w) / pi * V).
-    visibility: (P, L) fractions in [0, 1], or None for 1. Zero normals give 0.
+    C is light_cosines; visibility: (P, L) fractions in [0, 1] (light_visibility), or None for 1.
     """
     normals = _unit_rows(normals)
     if not lights:
         return np.zeros((len(normals), 3))
-    directions = np.stack([light.direction for light in lights])
     powers = np.stack([light.power for light in lights])
-    weight = np.maximum(0.0, matmul_serial(normals, directions.T)) / np.pi
+    weight = light_cosines(normals, lights) / np.pi
     if visibility is not None:
         visibility = np.asarray(visibility, dtype=np.float64)
         if visibility.shape != weight.shape:
@@ -90,14 +105,16 @@ def light_visibility(
     rays_per_light: int = 16,
     offset: npt.ArrayLike | None = None,
 ) -> np.ndarray:
-    """(P, L) fraction of each light's disc seen from each point, by rays to disc_directions.
+    """(P, L) fraction of each light seen from each point: of its disc, by rays_per_light rays
+    to disc_directions; of a light with samples, by one ray per sample, the fraction of its
+    cosine term C (light_cosines) whose rays are free.
 
     occluder follows the core.raytrace protocol: occluded(origins f32 (N, 3), dirs f32 (N, 3))
     -> bool (N,). Ray origins are point + offset * unit normal, offset scalar or (P,) as in the
     transfer bake; None: the bake's rule max(1e-4 * bounding-box diagonal, 1e-5 * largest
     |coordinate|) over the points. Disc rays at or below the tangent plane count as blocked (the
     surface hides them) and are not traced; points with the light's centre below the horizon get
-    0 (their irradiance is 0 anyway). A light of angle 0 gets one ray.
+    0 (their irradiance is 0 anyway). A disc light of angle 0 gets one ray.
     """
     if isinstance(rays_per_light, bool) or not isinstance(rays_per_light, (int, np.integer)) or rays_per_light < 1:
         raise ValueError(f"rays_per_light must be an integer >= 1, got {rays_per_light!r}")
@@ -113,19 +130,27 @@ def light_visibility(
     origins = points + offset[:, None] * normals
     visibility = np.zeros((len(points), len(lights)))
     for index, light in enumerate(lights):
-        rays = disc_directions(light.direction, light.angle, 1 if light.angle == 0 else int(rays_per_light))
-        facing = np.flatnonzero(matmul_serial(normals, light.direction) > 0.0)
+        if light.samples is None:
+            rays = disc_directions(light.direction, light.angle, 1 if light.angle == 0 else int(rays_per_light))
+            facing = np.flatnonzero(matmul_serial(normals, light.direction) > 0.0)
+        else:
+            rays = light.samples
+            facing = np.flatnonzero((matmul_serial(normals, rays.T) > 0.0).any(axis=1))
         step = max(1, CHUNK_RAYS // len(rays))
         for start in range(0, len(facing), step):
             chosen = facing[start : start + step]
-            above = matmul_serial(normals[chosen], rays.T) > 0.0  # (n, k)
-            which, ray = np.nonzero(above)
-            free = np.zeros(above.shape)
+            cosine = matmul_serial(normals[chosen], rays.T)  # (n, k)
+            which, ray = np.nonzero(cosine > 0.0)
+            free = np.zeros(cosine.shape)
             if which.size:
                 blocked = np.asarray(
                     occluder.occluded(origins[chosen][which].astype(np.float32), rays[ray].astype(np.float32)),
                     dtype=bool,
                 )
                 free[which, ray] = ~blocked
-            visibility[chosen, index] = free.mean(axis=1)
+            if light.samples is None:
+                visibility[chosen, index] = free.mean(axis=1)
+            else:
+                weight = np.maximum(cosine, 0.0) * light.weights
+                visibility[chosen, index] = (weight * free).sum(axis=1) / weight.sum(axis=1)
     return visibility

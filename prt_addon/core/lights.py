@@ -9,7 +9,9 @@ Pixels are (H, W, C) linear RGB laid out like `projection.project_equirect` expe
 A light's `power` is the RGB excess radiance integrated over solid angle, so a surface facing it
 receives the irradiance `power` and, in the project's units (transfer includes 1/pi), shows the
 radiance power / pi * max(0, n . s) * V. Directions are in the image (world) frame; after a world
-rotation R (direction in world = R @ direction in image frame) use `rotate_lights`.
+rotation R (direction in world = R @ direction in image frame) use `rotate_lights`. Each
+extracted light also keeps power-weighted sample directions over its own texels
+(core.light_samples), which its shading uses instead of the disc.
 """
 
 from __future__ import annotations
@@ -20,13 +22,14 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from .light_samples import SAMPLES_PER_LIGHT, median_angle, region_samples, samples_from_array
 from .projection import as_rgb_image, column_azimuths, row_elevations
-from .light_visibility import disc_directions, light_irradiance, light_visibility  # noqa: F401 (the lights' shading)
+from .light_visibility import disc_directions, light_cosines, light_irradiance, light_visibility  # noqa: F401 (the lights' shading)
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 MAX_LIGHTS = 8
-MEAN_FACTOR = 8.0  # threshold rule: see auto_threshold
-COMPACT_FRACTION = 0.01
+MEAN_FACTOR = 3.0  # threshold rule: see auto_threshold
+COMPACT_FRACTION = 0.1
 MIN_SHARE = 0.005  # regions with less of the world's luminance power stay in the residual
 FLOATS_PER_LIGHT = 7  # direction 3, power 3, angle 1
 LUMINANCE_ROWS = 16  # rows converted to float64 at a time (stays in cache: measured fastest)
@@ -34,13 +37,19 @@ LUMINANCE_ROWS = 16  # rows converted to float64 at a time (stays in cache: meas
 
 @dataclass
 class Light:
-    """A disc light: unit direction, RGB power (integral of excess radiance), angular radius."""
+    """A light: unit direction, RGB power (integral of excess radiance), angular radius of the
+    disc with the same mean cosine; optionally samples (k, 3) unit directions with weights (k,)
+    summing to 1 (core.light_samples), which the shading uses instead of the disc when given, and
+    shadow_angle, the radius the viewport's shadow filter uses (None: angle)."""
 
     direction: np.ndarray
     power: np.ndarray
     angle: float
     solid_angle: float = 0.0
     texels: int = 0
+    samples: np.ndarray | None = None
+    weights: np.ndarray | None = None
+    shadow_angle: float | None = None
     luminance: float = field(init=False)
 
     def __post_init__(self):
@@ -48,6 +57,14 @@ class Light:
         self.power = np.asarray(self.power, dtype=np.float64).reshape(3)
         self.angle = float(self.angle)
         self.luminance = float(_luma(self.power))
+        self.shadow_angle = None if self.shadow_angle is None else float(self.shadow_angle)
+        if (self.samples is None) != (self.weights is None):
+            raise ValueError("a light's samples and weights come together")
+        if self.samples is not None:
+            self.samples = np.asarray(self.samples, dtype=np.float64).reshape(-1, 3)
+            self.weights = np.asarray(self.weights, dtype=np.float64).reshape(-1)
+            if len(self.samples) != len(self.weights) or not len(self.weights):
+                raise ValueError("a light needs one weight per sample, and at least one sample")
 
 
 def _texel_geometry(height, width):
@@ -99,11 +116,11 @@ def _world_power(lum, solid):  # sum of lum * texel solid angle
     return float(lum.sum(axis=1) @ solid)
 
 
-def _threshold(lum, solid, world_power):
-    threshold = MEAN_FACTOR * world_power / (4.0 * np.pi)
+def _threshold(lum, solid, world_power, mean_factor=MEAN_FACTOR, compact_fraction=COMPACT_FRACTION):
+    threshold = mean_factor * world_power / (4.0 * np.pi)
     rows, cols = np.nonzero(lum > threshold)
     texel_solid = solid[rows]
-    budget = COMPACT_FRACTION * 4.0 * np.pi
+    budget = compact_fraction * 4.0 * np.pi
     if texel_solid.sum() <= budget:
         return threshold
     values = lum[rows, cols]
@@ -114,18 +131,22 @@ def _threshold(lum, solid, world_power):
     return max(threshold, float(values[order[first]]))
 
 
-def auto_threshold(pixels: npt.ArrayLike) -> float:
+def auto_threshold(
+    pixels: npt.ArrayLike, *, mean_factor: float = MEAN_FACTOR, compact_fraction: float = COMPACT_FRACTION
+) -> float:
     """Luminance threshold T above which texels are split off as lights.
 
-    T = max(8 * mean, T_compact): mean is the solid-angle-weighted mean luminance of the image
+    T = max(3 * mean, T_compact): mean is the solid-angle-weighted mean luminance of the image
     (pixel policy of the projection applied), T_compact the smallest value such that the texels
-    brighter than it cover at most 1 % of the sphere (a cap of 11.5 degrees radius). A texel is a
-    light only if it is 8 times brighter than the average sky, and the lights stay compact. A
-    uniform or one-colour image gives T = 8 * its luminance, so no texel exceeds it.
+    brighter than it cover at most 10 % of the sphere (a cap of 37 degrees radius). A texel is a
+    light only if it is 3 times brighter than the average sky, and the lights stay bounded (their
+    samples model a wide region: core.light_samples). A uniform or one-colour image gives
+    T = 3 * its luminance, so no texel exceeds it. mean_factor and compact_fraction replace the
+    3 and the 10 % (to measure the rule; extract_lights always uses the constants).
     """
     rgb = as_rgb_image(pixels)
     lum, solid = _luminance(rgb), _texel_geometry(*rgb.shape[:2])[0]
-    return _threshold(lum, solid, _world_power(lum, solid))
+    return _threshold(lum, solid, _world_power(lum, solid), mean_factor, compact_fraction)
 
 
 def _is_real(value):
@@ -201,7 +222,12 @@ def _connected_components(count, sources, targets):
 
 
 def extract_lights(
-    pixels: npt.ArrayLike, threshold: float | None = None, max_lights: int = 4, *, min_share: float = MIN_SHARE
+    pixels: npt.ArrayLike,
+    threshold: float | None = None,
+    max_lights: int = 4,
+    *,
+    min_share: float = MIN_SHARE,
+    samples: int = SAMPLES_PER_LIGHT,
 ) -> tuple[np.ndarray, list[Light]]:
     """Split the compact bright sources of an equirect image: -> (residual (H, W, 3), [Light]).
 
@@ -214,12 +240,16 @@ def extract_lights(
     Each light: power = sum excess * texel solid angle (RGB); direction = normalised first
     moment m = sum lum_excess * integral(d dOmega) over its texels (the exact power-weighted mean
     direction of the piecewise-constant excess); angle = radius of the uniform disc with the same
-    mean cosine rho = |m| / luminance power, i.e. cos(angle) = 2 rho - 1.
+    mean cosine rho = |m| / luminance power, i.e. cos(angle) = 2 rho - 1; samples, weights: up
+    to `samples` power-weighted directions over its texels (core.light_samples.region_samples;
+    0: none, the light is shaded as its disc).
 
     The residual has the input's dtype if float32/float64 (else float64); texels outside the
     lights are copied unchanged (NaN, Inf and negatives are left for the projection to repair).
     """
     threshold, max_lights = _check_arguments(threshold, max_lights, min_share)
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 0:
+        raise ValueError(f"samples must be an integer >= 0, got {samples!r}")
     rgb = as_rgb_image(pixels)
     height, width, _ = rgb.shape
     dtype = rgb.dtype if rgb.dtype in (np.float32, np.float64) else np.float64
@@ -272,13 +302,22 @@ def extract_lights(
     lights = []
     for r in chosen:
         rho = min(1.0, moment_length[r] / region_lum[r])
+        sample_dirs = sample_weights = shadow = None
+        direction = region_moment[r] / moment_length[r]
+        if samples > 0:
+            mine = np.flatnonzero(region == r)
+            sample_dirs, sample_weights = region_samples(columns[mine, 3:6], _luma(columns[mine, :3]), samples)
+            shadow = median_angle(columns[mine, 3:6], _luma(columns[mine, :3]), direction)
         lights.append(
             Light(
-                direction=region_moment[r] / moment_length[r],
+                direction=direction,
                 power=region_power[r],
                 angle=2.0 * np.arcsin(np.sqrt(1.0 - rho)),
                 solid_angle=float(region_solid[r]),
                 texels=int(region_texels[r]),
+                samples=sample_dirs,
+                weights=sample_weights,
+                shadow_angle=shadow,
             )
         )
     return residual, lights
@@ -290,15 +329,19 @@ def lights_to_array(lights: Iterable[Light]) -> list[float]:
     return np.concatenate(values).tolist() if values else []
 
 
-def lights_from_array(values: npt.ArrayLike) -> list[Light]:
-    """Inverse of lights_to_array. solid_angle is the disc's 2 pi (1 - cos angle); texels 0."""
+def lights_from_array(values: npt.ArrayLike, samples: npt.ArrayLike | None = None) -> list[Light]:
+    """Inverse of lights_to_array. solid_angle is the disc's 2 pi (1 - cos angle); texels 0.
+    samples: the lights' samples_to_array (core.light_samples), or None (lights stored before
+    samples existed: every light is its disc)."""
     values = np.asarray(values, dtype=np.float64).ravel()
     if values.size % FLOATS_PER_LIGHT or not np.all(np.isfinite(values)):
         raise ValueError(
             f"stored lights must be finite, {FLOATS_PER_LIGHT} floats per light (got {values.size} values)"
         )
+    rows = values.reshape(-1, FLOATS_PER_LIGHT)
+    per_light = [None] * len(rows) if samples is None else samples_from_array(samples, len(rows))
     lights = []
-    for row in values.reshape(-1, FLOATS_PER_LIGHT):
+    for row, sampled in zip(rows, per_light):
         length = np.linalg.norm(row[:3])
         if length == 0.0 or row[6] < 0.0:
             raise ValueError("a stored light has a zero direction or a negative angle")
@@ -309,6 +352,9 @@ def lights_from_array(values: npt.ArrayLike) -> list[Light]:
                 angle=row[6],
                 solid_angle=2.0 * np.pi * (1.0 - np.cos(row[6])),
                 texels=0,
+                samples=None if sampled is None else sampled[0],
+                weights=None if sampled is None else sampled[1],
+                shadow_angle=None if sampled is None else sampled[2],
             )
         )
     return lights
@@ -325,6 +371,9 @@ def rotate_lights(lights: Iterable[Light], rotation: npt.ArrayLike) -> list[Ligh
             angle=light.angle,
             solid_angle=light.solid_angle,
             texels=light.texels,
+            samples=None if light.samples is None else light.samples @ rotation.T,
+            weights=None if light.weights is None else light.weights.copy(),
+            shadow_angle=light.shadow_angle,
         )
         for light in lights
     ]

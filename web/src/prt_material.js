@@ -8,7 +8,7 @@
 // over Vogel-disc taps, the same filter as Blender's). Output is linear radiance, or with
 // `display` set, radiance * 2^exposure through the sRGB curve (Blender's "Standard" view).
 import * as THREE from 'three';
-import { MAX_SUNS, PCF_TAPS, BLOCKER_TAPS, MAX_RADIUS, MAX_SLOPE } from './shadows.js';
+import { MAX_SUNS, PCF_TAPS, BLOCKER_TAPS, MAX_RADIUS, MAX_SLOPE, MAX_SAMPLES, MIN_COSINE } from './shadows.js';
 
 const MAX_TEXTURE_WIDTH = 4096;
 
@@ -85,6 +85,7 @@ uniform vec4 sunRows[${3 * MAX_SUNS}];
 uniform vec4 sunDir[${MAX_SUNS}];
 uniform vec4 sunPower[${MAX_SUNS}];
 uniform vec4 sunParams[${MAX_SUNS}];
+uniform vec4 sunSamples[${MAX_SUNS * MAX_SAMPLES}];
 uniform mat3 nrmMatrix;
 uniform bool useShadows;
 
@@ -99,6 +100,15 @@ vec2 vogel(int i, int n) {
   float r = sqrt((float(i) + 0.5) / float(n));
   float a = float(i) * 2.3999632;
   return r * vec2(cos(a), sin(a));
+}
+
+float sunCosine(vec3 n, int l) {
+  float sum = 0.0;
+  for (int j = 0; j < ${MAX_SAMPLES}; j++) {
+    vec4 s = sunSamples[${MAX_SAMPLES} * l + j];
+    sum += s.w * max(dot(n, s.xyz), 0.0);
+  }
+  return sum;
 }
 
 float sunVisibility(sampler2D map, int l, float c) {
@@ -151,8 +161,8 @@ ${
   float c;
 ${Array.from(
   { length: suns },
-  (_, l) => `  c = dot(n, sunDir[${l}].xyz);
-  if (c > 0.0) sun += sunPower[${l}].rgb * (c * sunVisibility(shadow${l}, ${l}, c));`,
+  (_, l) => `  c = sunCosine(n, ${l});
+  if (c > 0.0) sun += sunPower[${l}].rgb * (c * sunVisibility(shadow${l}, ${l}, max(dot(n, sunDir[${l}].xyz), ${MIN_COSINE.toFixed(2)})));`,
 ).join('\n')}
   color += surfaceAlbedo * sun;`
     : ''
@@ -182,6 +192,7 @@ export function prtMaterial({ count, suns, texture, perRow, albedo, shared, chan
       sunDir: shared.sunDir,
       sunPower: shared.sunPower,
       sunParams: shared.sunParams,
+      sunSamples: shared.sunSamples,
       useShadows: shared.useShadows,
     });
     for (let l = 0; l < suns; l++) uniforms[`shadow${l}`] = shared.shadowMaps[l];

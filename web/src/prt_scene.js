@@ -8,7 +8,16 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
 import { lightInLocalFrame, multiply3 } from './sh_rotation.js';
 import { prtMaterial, setLight, transferTexture } from './prt_material.js';
-import { MAX_SUNS, ShadowMaps } from './shadows.js';
+import { MAX_SAMPLES, MAX_SUNS, ShadowMaps } from './shadows.js';
+
+/** The 3-vector d turned by the row-major 3x3 r. */
+function turned(r, d) {
+  return [
+    r[0] * d[0] + r[1] * d[1] + r[2] * d[2],
+    r[3] * d[0] + r[4] * d[1] + r[5] * d[2],
+    r[6] * d[0] + r[7] * d[1] + r[8] * d[2],
+  ];
+}
 
 // Blender's display draws a primitive without a material with its default grey (albedo.py).
 export const DEFAULT_ALBEDO = [0.8, 0.8, 0.8];
@@ -49,6 +58,7 @@ export class PRTScene {
       sunDir: { value: Array.from({ length: MAX_SUNS }, () => new THREE.Vector4()) },
       sunPower: { value: Array.from({ length: MAX_SUNS }, () => new THREE.Vector4()) },
       sunParams: { value: Array.from({ length: MAX_SUNS }, () => new THREE.Vector4()) },
+      sunSamples: { value: Array.from({ length: MAX_SUNS * MAX_SAMPLES }, () => new THREE.Vector4()) },
       shadowMaps: Array.from({ length: MAX_SUNS }, () => ({ value: null })),
     };
     this.baked = [];
@@ -111,12 +121,7 @@ export class PRTScene {
   }
 
   lightDirections() {
-    const r = this.turn;
-    return this.lights.map(({ direction: d }) => [
-      r[0] * d[0] + r[1] * d[1] + r[2] * d[2],
-      r[3] * d[0] + r[4] * d[1] + r[5] * d[2],
-      r[6] * d[0] + r[7] * d[1] + r[8] * d[2],
-    ]);
+    return this.lights.map(({ direction }) => turned(this.turn, direction));
   }
 
   updateLights() {
@@ -128,7 +133,19 @@ export class PRTScene {
       const light = this.lights[l];
       s.sunDir.value[l].set(d[0] / n, d[1] / n, d[2] / n, 0);
       s.sunPower.value[l].set(...light.power.map((p) => p / Math.PI), 0);
-      s.sunParams.value[l].set(maps[l].texel, Math.tan(Math.min(light.angle, 1.5)), this.shadows.resolution, 0);
+      // The filter's disc: the light's shadow angle when it has samples (core.light_samples).
+      const penumbra = Math.min(light.samples ? Math.min(light.shadow_angle, light.angle) : light.angle, 1.5);
+      s.sunParams.value[l].set(maps[l].texel, Math.tan(penumbra), this.shadows.resolution, 0);
+      // The cosine term sum_j w_j max(0, n . s_j); a light without samples is its direction.
+      const samples = light.samples || [light.direction];
+      const weights = light.weights || [1.0];
+      const count = Math.min(samples.length, MAX_SAMPLES);
+      const total = weights.slice(0, count).reduce((a, b) => a + b, 0);
+      for (let j = 0; j < MAX_SAMPLES; j++) {
+        const v = s.sunSamples.value[MAX_SAMPLES * l + j];
+        if (j < count) v.set(...turned(this.turn, samples[j]), weights[j] / total);
+        else v.set(0, 0, 0, 0);
+      }
       for (let j = 0; j < 3; j++) s.sunRows.value[3 * l + j].set(...maps[l].rows[j]);
       s.shadowMaps[l].value = maps[l].texture;
     });

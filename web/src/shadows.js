@@ -11,6 +11,8 @@ export const BLOCKER_TAPS = 12;
 export const PCF_TAPS = 16;
 export const MAX_RADIUS = 16.0;
 export const MAX_SLOPE = 20.0;
+export const MAX_SAMPLES = 16; // a light's samples in the cosine term (display/shader_suns.py)
+export const MIN_COSINE = 0.05; // the slope bias's cosine when the mean direction is at or below the horizon
 const PAD = 0.01;
 
 const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];

@@ -1,16 +1,25 @@
-"""GLSL of the sun lights: per-pixel n.s and a shadow-map visibility filtered over the light's disc.
+"""GLSL of the sun lights: per-pixel cosine term and a shadow-map visibility over the light's disc.
 
 Added to the PRT shader when the scene has split lights. The SH part (per vertex, clamped) is left
-as it is; the fragment shader adds albedo * sum_l P_l/pi * max(0, n.s_l) * V_l. V_l is PCSS on the
+as it is; the fragment shader adds albedo * sum_l P_l/pi * C_l * V_l. C_l is the light's cosine
+term as core.light_visibility.light_cosines defines it: sum_j w_j max(0, n.s_j) over its samples
+(up to MAX_SAMPLES; a light without samples is its direction, weight 1). V_l is PCSS on the
 light's orthographic depth map (shadows.py): a blocker search over the widest penumbra the disc
 can throw, then percentage-closer filtering with the penumbra radius (d_receiver - d_blocker) *
-tan(angle), both over Vogel-disc taps, with a depth bias from the receiver's slope.
+tan(angle), both over Vogel-disc taps, with a depth bias from the receiver's slope. It is one
+map along the light's mean direction, filtered over a disc of the light's shadow angle
+(core.light_samples.shadow_angle: the power-median radius of its texels, at most the moment
+radius): for a wide light the shadow is that disc's, where api.shade traces each sample.
 """
 
 import gpu
 import numpy as np
 
+from ...core.light_samples import shadow_angle
+
 MAX_SUNS = 8
+MAX_SAMPLES = 16  # samples per light in the cosine term (core.light_samples.SAMPLES_PER_LIGHT)
+MIN_COSINE = 0.05  # the slope bias's cosine when the mean direction is at or below the horizon
 SHADOW_SLOT = 1  # sampler slots 1..8 (slot 0 is the transfer texture)
 BLOCKER_TAPS = 12
 PCF_TAPS = 16
@@ -19,7 +28,7 @@ MAX_SLOPE = 20.0  # tan of the receiver's angle to the light, capped for the bia
 
 UBO_SOURCE = (
     f"struct PRTSuns {{ vec4 nrm[3]; vec4 to_light[{3 * MAX_SUNS}]; vec4 dir[{MAX_SUNS}]; "
-    f"vec4 power[{MAX_SUNS}]; vec4 params[{MAX_SUNS}]; }};\n"
+    f"vec4 power[{MAX_SUNS}]; vec4 params[{MAX_SUNS}]; vec4 samples[{MAX_SUNS * MAX_SAMPLES}]; }};\n"
 )
 
 _FUNCTIONS = f"""
@@ -37,6 +46,16 @@ vec2 vogel(int i, int n)
   float r = sqrt((float(i) + 0.5) / float(n));
   float a = float(i) * 2.3999632;
   return r * vec2(cos(a), sin(a));
+}}
+
+float sun_cosine(vec3 n, int l)
+{{
+  float sum = 0.0;
+  for (int j = 0; j < {MAX_SAMPLES}; j++) {{
+    vec4 s = suns.samples[{MAX_SAMPLES} * l + j];
+    sum += s.w * max(dot(n, s.xyz), 0.0);
+  }}
+  return sum;
 }}
 
 float sun_visibility(sampler2D map, int l, float c)
@@ -93,9 +112,10 @@ def add_suns(info, lights, vertex_source, attr_index):
         "  gl_Position = mvp",
     )
     per_light = "\n".join(
-        f"  c = dot(n, suns.dir[{l}].xyz);\n"
+        f"  c = sun_cosine(n, {l});\n"
         f"  if (c > 0.0) {{\n"
-        f"    sun += suns.power[{l}].rgb * (c * sun_visibility(shadow{l}, {l}, c));\n"
+        f"    float v = sun_visibility(shadow{l}, {l}, max(dot(n, suns.dir[{l}].xyz), {MIN_COSINE}));\n"
+        f"    sun += suns.power[{l}].rgb * (c * v);\n"
         f"  }}"
         for l in range(lights)
     )
@@ -114,14 +134,23 @@ def add_suns(info, lights, vertex_source, attr_index):
 
 def suns_ubo_bytes(lights, maps, matrix_world):
     """std140 bytes of PRTSuns for one object: its normal matrix, and per light the local ->
-    (texel x, texel y, depth) rows, the direction, P / pi, and (texel size, tan angle, resolution)."""
+    (texel x, texel y, depth) rows, the direction, P / pi, (texel size, tan shadow angle, resolution)
+    and the samples (direction, weight; the first MAX_SAMPLES, their weights renormalised)."""
     mw = np.asarray(matrix_world, dtype=np.float64)
-    data = np.zeros((3 + 6 * MAX_SUNS, 4))
+    data = np.zeros((3 + 6 * MAX_SUNS + MAX_SUNS * MAX_SAMPLES, 4))
     data[0:3, :3] = np.linalg.inv(mw[:3, :3]).T
     for l, (light, shadow) in enumerate(zip(lights, maps)):
         data[3 + 3 * l : 6 + 3 * l] = shadow.rows @ mw
         base = 3 + 3 * MAX_SUNS
         data[base + l, :3] = light.direction / np.linalg.norm(light.direction)
         data[base + MAX_SUNS + l, :3] = light.power / np.pi
-        data[base + 2 * MAX_SUNS + l, :3] = (shadow.texel, np.tan(min(light.angle, 1.5)), shadow.resolution)
+        penumbra = min(shadow_angle(light), 1.5)
+        data[base + 2 * MAX_SUNS + l, :3] = (shadow.texel, np.tan(penumbra), shadow.resolution)
+        first = base + 3 * MAX_SUNS + MAX_SAMPLES * l
+        if light.samples is None:
+            data[first] = (*data[base + l, :3], 1.0)
+        else:
+            count = min(len(light.samples), MAX_SAMPLES)
+            data[first : first + count, :3] = light.samples[:count]
+            data[first : first + count, 3] = light.weights[:count] / light.weights[:count].sum()
     return data.astype(np.float32).tobytes()

@@ -14,6 +14,7 @@ import uuid
 import bpy
 import numpy as np
 
+from ...core.light_samples import shadow_angle
 from ...core.light_sh import lights_sh
 
 from ...core import rotation as _rotation
@@ -116,6 +117,10 @@ def world_extras(scene):
                 "direction": (BLENDER_TO_GLTF @ np.asarray(light.direction, dtype=np.float64)).tolist(),
                 "power": np.asarray(light.power, dtype=np.float64).tolist(),
                 "angle": float(light.angle),
+                # The shading's samples (docs/lights.md, "Samples"); null for a light without.
+                "samples": None if light.samples is None else (light.samples @ BLENDER_TO_GLTF.T).tolist(),
+                "weights": None if light.weights is None else light.weights.tolist(),
+                "shadow_angle": shadow_angle(light),
             }
         )
     n = int(round(np.sqrt(coeffs.shape[0])))

@@ -65,13 +65,13 @@ class PRT_PG_world(bpy.types.PropertyGroup):
     split_lights: bpy.props.BoolProperty(
         name="Split Lights",
         description="At the next projection, take the world's compact bright sources (a sun, lamps) out "
-        "of the SH as disc lights with their own shadows; SH of any order cannot hold them",
+        "of the SH as lights with their own shadows; SH of any order cannot hold them",
         default=True,
     )
     auto_threshold: bpy.props.BoolProperty(
         name="Auto Threshold",
-        description="Choose the light threshold from the image: the larger of 8 times its mean luminance and "
-        "the level that keeps the bright texels within 1 % of the sphere",
+        description="Choose the light threshold from the image: the larger of 3 times its mean luminance and "
+        "the level that keeps the bright texels within 10 % of the sphere",
         default=True,
     )
     light_threshold: bpy.props.FloatProperty(

@@ -3,13 +3,17 @@
 The maths is prt_addon.core.lights; docs/world.md ("Light split") explains what is stored.
 """
 
+import dataclasses
+
 import numpy as np
 
+from ...core import light_samples as core_samples
 from ...core import lights as core_lights
 from ...core.projection import ROW_BLOCK, as_rgb_image, pixel_solid_angles
 from .nodes import WorldError
 
 LIGHTS_KEY = "prt_world_lights"  # image-frame lights, flat (core.lights.lights_to_array)
+SAMPLES_KEY = "prt_world_light_samples"  # their samples (core.light_samples.samples_to_array)
 
 
 def check_split_settings(threshold, max_lights):
@@ -64,7 +68,7 @@ def scaled(lights, strength):
     for light in lights:
         power = light.power * strength
         if np.any(power > 0.0):
-            out.append(core_lights.Light(light.direction, power, light.angle, light.solid_angle, light.texels))
+            out.append(dataclasses.replace(light, power=power))
     return out
 
 
@@ -83,23 +87,35 @@ def elevation(light, rotation):
 
 
 def store(scene, lights):
-    """Write the image-frame lights next to the SH (the key is removed when there are none)."""
+    """Write the image-frame lights and their samples next to the SH (the keys are removed when
+    there are none)."""
     if lights:
         scene[LIGHTS_KEY] = core_lights.lights_to_array(lights)
-    elif LIGHTS_KEY in scene:
-        del scene[LIGHTS_KEY]
+        scene[SAMPLES_KEY] = core_samples.samples_to_array(lights)
+    else:
+        for key in (LIGHTS_KEY, SAMPLES_KEY):
+            if key in scene:
+                del scene[key]
 
 
 def stored(scene):
-    """[Light] stored on the scene in the image frame; [] when none (or an older projection)."""
-    data = scene.get(LIGHTS_KEY)
+    """[Light] stored on the scene in the image frame; [] when none (or an older projection).
+    Lights stored without samples (before they existed), or with unreadable ones, are discs."""
+    values, samples = (_floats(scene.get(key)) for key in (LIGHTS_KEY, SAMPLES_KEY))
+    if values is None:
+        return []
+    for with_samples in ((samples,) if samples is not None else ()) + (None,):
+        try:
+            return core_lights.lights_from_array(values, with_samples)
+        except ValueError:
+            continue
+    return []
+
+
+def _floats(data):
     if data is None:
-        return []
-    values = data.to_list() if hasattr(data, "to_list") else list(data)
-    try:
-        return core_lights.lights_from_array(values)
-    except ValueError:
-        return []
+        return None
+    return data.to_list() if hasattr(data, "to_list") else list(data)
 
 
 def summary(settings):
