@@ -170,11 +170,7 @@ def test_viewport_draws_the_bounced_transfer_as_shade_computes_it(bpy_module, em
     cam.location, cam.rotation_euler = (0.0, -7.0, 5.0), (math.radians(55), 0.0, 0.0)
     empty_scene.camera = cam
     empty_scene.prt_display.albedo_source = "WHITE"
-    # Threshold 12: courtyard's two bright patches of about 10 degrees (6 % of the power) are the
-    # lights. The automatic threshold makes lights of 20 degrees and more there, whose penumbrae
-    # the viewport's one shadow map per light filters over at most 16 texels where api.shade
-    # traces each sample (docs/display.md, "Sun shadows": the viewport's known difference).
-    api.project_world(empty_scene, order, threshold=12.0)
+    api.project_world(empty_scene, order)
     api.bake(objs, order=order, samples=64, bounces=2)
     size = 256
     image = api.render_view(empty_scene, size, size)
