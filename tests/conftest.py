@@ -34,6 +34,15 @@ def empty_scene(bpy_module, addon):
     return bpy_module.context.scene
 
 
+@pytest.fixture(scope="module")
+def gpu_ready(bpy_module, addon):
+    """Initialise the GPU once for the module (a tiny Workbench render), before large meshes."""
+    from prt_addon.blender.display import offscreen
+
+    assert offscreen.ensure_gpu()
+    return True
+
+
 def bundled_hdri_path(name="forest"):
     """Path of one of Blender's bundled studio-light HDRIs (1024x512 EXR, CC0)."""
     import bpy

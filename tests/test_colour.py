@@ -29,14 +29,6 @@ def enum_choices(owner, name):
     raise AssertionError(f"{name} accepted a bogus value")
 
 
-@pytest.fixture(scope="module")
-def gpu_ready(bpy_module, addon):
-    from prt_addon.blender.display import offscreen
-
-    assert offscreen.ensure_gpu()
-    return True
-
-
 @pytest.fixture
 def colour_scene(bpy_module, empty_scene, gpu_ready):
     """A sphere under a warm sun and a blue sky: radiances from 0.1 to about 2, in colour."""

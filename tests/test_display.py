@@ -160,15 +160,6 @@ def sample_at_vertices(bpy, obj, scene, image):
 # ---------------------------------------------------------------------------------------------
 
 
-@pytest.fixture(scope="module")
-def gpu_ready(bpy_module, addon):
-    """Initialise the GPU once for the module (a tiny Workbench render), before large meshes."""
-    from prt_addon.blender.display import offscreen
-
-    assert offscreen.ensure_gpu()
-    return True
-
-
 @pytest.fixture
 def lit_scene(bpy_module, empty_scene, gpu_ready):
     scene = empty_scene

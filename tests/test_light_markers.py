@@ -15,14 +15,6 @@ SIZE = 256
 SUN_COLOUR = np.array([1.0, 0.9, 0.7])  # sunny_image's patch
 
 
-@pytest.fixture(scope="module")
-def gpu_ready(bpy_module, addon):
-    from prt_addon.blender.display import offscreen
-
-    assert offscreen.ensure_gpu()
-    return True
-
-
 @pytest.fixture
 def sun_scene(bpy_module, empty_scene, gpu_ready):
     """A sky with one bright patch, projected with the split; a camera looking straight down on

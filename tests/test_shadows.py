@@ -18,14 +18,6 @@ POWER = np.array([3.0, 2.5, 2.0])
 SIZE = 256
 
 
-@pytest.fixture(scope="module")
-def gpu_ready(bpy_module, addon):
-    from prt_addon.blender.display import offscreen
-
-    assert offscreen.ensure_gpu()
-    return True
-
-
 def sky_light(order=3):
     light = np.zeros((order * order, 3))
     light[0] = SKY * np.sqrt(4.0 * np.pi)
