@@ -276,5 +276,17 @@ def main(argv=None):
     return 0
 
 
+def exit_now(status):
+    """Exit with `status`. The bpy 4.2 module crashes at interpreter exit once the glTF exporter
+    has run (its SpaceType destructors call into the finalised Python; 4.3+ exit cleanly), so
+    on 4.2 the demo leaves before those destructors, after flushing its output."""
+    bpy = sys.modules.get("bpy")
+    if bpy is not None and tuple(bpy.app.version[:2]) < (4, 3) and "io_scene_gltf2" in sys.modules:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(status)
+    sys.exit(status)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    exit_now(main())
