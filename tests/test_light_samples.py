@@ -5,7 +5,8 @@ import pytest
 
 from prt_addon.core import light_samples, lights
 from prt_addon.core.projection import pixel_directions, pixel_solid_angles
-from test_lights import HalfPlane, rotation_z, sky_with_discs, unit
+from test_light_visibility import HalfPlane
+from test_lights import rotation_z, sky_with_discs, unit
 
 HEIGHT, WIDTH = 256, 512
 WIDE = unit(20.0, 12.0)
