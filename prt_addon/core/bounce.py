@@ -123,31 +123,34 @@ def hit_barycentrics(corners: np.ndarray, origins: npt.ArrayLike, dirs: npt.Arra
     """(u, v, det) float32 of rays o + s w meeting triangles with rows (a, e1, e2) of `corners`
     (m, 9), hit = a + u e1 + v e2, by Moller and Trumbore (1997): p = w x e2, q = (o - a) x e1,
     det = e1 . p, u = (o - a) . p / det, v = w . q / det (det 0: u = v = 0)."""
-    ax, ay, az, e1x, e1y, e1z, e2x, e2y, e2z = corners.T  # component rows: in-place products
-    ox, oy, oz = np.asarray(origins, dtype=np.float32).T
-    dx, dy, dz = np.asarray(dirs, dtype=np.float32).T
-    tx, ty, tz = ox - ax, oy - ay, oz - az
-    px, py, pz = dy * e2z, dz * e2x, dx * e2y
-    px -= dz * e2y
-    py -= dx * e2z
-    pz -= dy * e2x
-    det = e1x * px
-    det += e1y * py
-    det += e1z * pz
+    c = corners.T  # component rows: the products below work on contiguous-ish rows, in place
+    a, e1, e2 = c[0:3], c[3:6], c[6:9]
+    d = np.asarray(dirs, dtype=np.float32).T
+    t = np.asarray(origins, dtype=np.float32).T - a
+    p = _cross_rows(d, e2)
+    det = _dot_rows(e1, p)
     inv = np.float32(1.0) / np.where(det == 0.0, np.float32(1.0), det)
-    u = tx * px
-    u += ty * py
-    u += tz * pz
+    u = _dot_rows(t, p)
     u *= inv
-    qx, qy, qz = ty * e1z, tz * e1x, tx * e1y
-    qx -= tz * e1y
-    qy -= tx * e1z
-    qz -= ty * e1x
-    v = dx * qx
-    v += dy * qy
-    v += dz * qz
+    v = _dot_rows(d, _cross_rows(t, e1))
     v *= inv
     return u, v, det
+
+
+def _cross_rows(a, b):
+    """a x b for vectors given as 3 component rows (3, m)."""
+    x, y, z = a[1] * b[2], a[2] * b[0], a[0] * b[1]
+    x -= a[2] * b[1]
+    y -= a[0] * b[2]
+    z -= a[1] * b[0]
+    return x, y, z
+
+
+def _dot_rows(a, b):
+    out = a[0] * b[0]
+    out += a[1] * b[1]
+    out += a[2] * b[2]
+    return out
 
 
 class RowRuns:
