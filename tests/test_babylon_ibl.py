@@ -7,6 +7,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from test_web import _tool
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SIZE = 64  # the test's cube map (mip 0 face size)
@@ -37,13 +38,6 @@ def world_function(d):
         axis = axis / np.linalg.norm(axis)
         value = value + colour * np.exp((d @ axis - 1.0) / width)[..., None]
     return value
-
-
-def _tool(script):
-    run = subprocess.run(["bash", os.path.join(ROOT, "scripts", script)], capture_output=True, text=True, timeout=900)
-    if run.returncode != 0:
-        pytest.fail(f"{script} failed: {run.stderr[-2000:]}")
-    return run.stdout.strip().splitlines()[-1]
 
 
 @pytest.fixture(scope="module")

@@ -13,48 +13,14 @@
 // puppeteer-core comes from build/node (scripts/setup_node.sh).
 import fs from 'node:fs';
 import path from 'node:path';
-import { createRequire } from 'node:module';
-import { fileURLToPath, pathToFileURL } from 'node:url';
+import { pathToFileURL } from 'node:url';
 
-const here = path.dirname(fileURLToPath(import.meta.url));
-const modules = process.env.PRT_NODE_MODULES || path.join(here, '..', '..', 'build', 'node', 'node_modules');
-const puppeteer = createRequire(path.join(modules, 'index.js'))('puppeteer-core');
-
-// Software WebGL2 in headless Chromium: ANGLE on SwiftShader, which Chromium allows only when asked.
-export const CHROMIUM_FLAGS = [
-  '--headless=new',
-  '--no-sandbox',
-  '--use-angle=swiftshader',
-  '--enable-unsafe-swiftshader',
-  '--ignore-gpu-blocklist',
-  '--disable-background-networking',
-  '--disable-component-update',
-  '--disable-sync',
-  '--disable-quic',
-  '--no-first-run',
-  '--allow-file-access-from-files',
-];
+import { withPage } from './chromium.mjs';
 
 const job = JSON.parse(fs.readFileSync(process.argv[2], 'utf8'));
 const started = Date.now();
-const userData = fs.mkdtempSync(path.join(path.dirname(job.out), 'chromium-profile-'));
-const browser = await puppeteer.launch({
-  executablePath: job.chromium,
-  args: [...CHROMIUM_FLAGS, `--user-data-dir=${userData}`],
-  headless: true,
-  protocolTimeout: 600000,
-  // Chromium's first start on a fresh machine (font and shader caches) took over puppeteer's
-  // default 30 s once on 2 busy cores.
-  timeout: 180000,
-});
 const summary = { images: [], screenshots: [], console: [], requests: [] };
-try {
-  const page = await browser.newPage();
-  page.on('console', (msg) => summary.console.push(`${msg.type()}: ${msg.text()}`));
-  page.on('pageerror', (error) => summary.console.push(`pageerror: ${error.message}`));
-  page.on('request', (request) => {
-    if (!/^(file|data|blob):/.test(request.url())) summary.requests.push(request.url());
-  });
+await withPage(job.chromium, path.dirname(job.out), summary, async (page) => {
   await page.setViewport({ width: job.width, height: job.height });
   await page.goto(pathToFileURL(job.html).href, { waitUntil: 'load' });
   summary.renderer = await page.evaluate(() => {
@@ -111,9 +77,6 @@ try {
       await page.screenshot({ path: `${job.out}_drag.png` });
     }
   }
-} finally {
-  await browser.close();
-  fs.rmSync(userData, { recursive: true, force: true });
-}
+});
 summary.seconds = (Date.now() - started) / 1000;
 console.log(JSON.stringify(summary));
