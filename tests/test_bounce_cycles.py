@@ -5,33 +5,10 @@ import pytest
 
 from prt_addon import api
 from prt_addon.core import raytrace
+from conftest import cycles_vertex_bake
 from test_bounce_bake import open_room
 
 pytestmark = pytest.mark.skipif(not raytrace.EMBREE_AVAILABLE, reason="embreex not available")
-
-
-def cycles_bake(bpy, scene, objs, passes, bounces, samples):
-    """E / pi per vertex of each object (white receiver) from Cycles' DIFFUSE bake."""
-    for obj in objs:
-        colours = obj.data.color_attributes
-        if colours.get("cycles") is None:
-            colours.new("cycles", "FLOAT_COLOR", "POINT")
-        colours.active_color = colours["cycles"]
-        obj.select_set(True)
-    bpy.context.view_layer.objects.active = objs[0]
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = samples
-    scene.cycles.diffuse_bounces = bounces
-    scene.cycles.max_bounces = bounces + 4
-    scene.cycles.glossy_bounces = scene.cycles.transmission_bounces = 0
-    bpy.ops.object.bake(type="DIFFUSE", pass_filter=passes, target="VERTEX_COLORS", use_clear=True)
-    out = {}
-    for obj in objs:
-        values = np.empty(len(obj.data.vertices) * 4, np.float32)
-        obj.data.color_attributes["cycles"].data.foreach_get("color", values)
-        out[obj.name] = values.reshape(-1, 4)[:, :3].astype(np.float64)
-    return out
 
 
 def lights_bounce(obj, scene):
@@ -59,8 +36,8 @@ def test_open_room_bounces_match_cycles_and_the_red_wall_bleeds(bpy_module, empt
     report = api.bake(objs, order=8, samples=512, bounces=3)
     assert report.bounces == 3 and report.bounce_channels == 3  # a red wall: colour transfer
     bounced = {o.name: api.shade(o, empty_scene) for o in objs}
-    c_direct = cycles_bake(bpy, empty_scene, objs, {"DIRECT"}, 0, 256)
-    c_total = cycles_bake(bpy, empty_scene, objs, {"DIRECT", "INDIRECT"}, 3, 256)
+    c_direct = cycles_vertex_bake(bpy, empty_scene, objs, 256, bounces=0)
+    c_total = cycles_vertex_bake(bpy, empty_scene, objs, 256, ("DIRECT", "INDIRECT"), 3)
     for obj in objs:
         ours = bounced[obj.name] - direct[obj.name]  # the indirect part: the direct band limit cancels
         theirs = c_total[obj.name] - c_direct[obj.name]
@@ -88,8 +65,8 @@ def test_uniform_world_room_matches_cycles_closely(bpy_module, empty_scene):
     direct = {o.name: api.shade(o, empty_scene) for o in objs}
     api.bake(objs, order=2, samples=512, bounces=3)
     bounced = {o.name: api.shade(o, empty_scene) for o in objs}
-    c_direct = cycles_bake(bpy, empty_scene, objs, {"DIRECT"}, 0, 128)
-    c_total = cycles_bake(bpy, empty_scene, objs, {"DIRECT", "INDIRECT"}, 3, 128)
+    c_direct = cycles_vertex_bake(bpy, empty_scene, objs, 128, bounces=0)
+    c_total = cycles_vertex_bake(bpy, empty_scene, objs, 128, ("DIRECT", "INDIRECT"), 3)
     for obj in objs:
         ours = (bounced[obj.name] - direct[obj.name]).mean(axis=0)
         theirs = (c_total[obj.name] - c_direct[obj.name]).mean(axis=0)

@@ -11,6 +11,7 @@ from prt_addon.core import lights as core_lights
 from prt_addon.core import rotation
 
 from test_world import add_mapping, float_image, image_of, known_coeffs, new_world, use_image
+from conftest import cycles_vertex_bake
 
 pytestmark = pytest.mark.blender
 
@@ -237,30 +238,6 @@ def rel_rmse_luminance(values, reference):
     return float(np.sqrt(np.mean((a - b) ** 2)) / np.sqrt(np.mean(b**2)))
 
 
-def cycles_vertex_bake(bpy, scene, objects, samples):
-    """Cycles DIFFUSE/DIRECT per vertex (E/pi for white albedo) of the selected meshes."""
-    bpy.ops.object.select_all(action="DESELECT")
-    for obj in objects:
-        mesh = obj.data
-        attr = mesh.color_attributes.new("cycles", "FLOAT_COLOR", "POINT")
-        mesh.color_attributes.active_color = attr
-        obj.select_set(True)
-    bpy.context.view_layer.objects.active = objects[0]
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = samples
-    scene.cycles.use_denoising = False
-    bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT"}, target="VERTEX_COLORS", use_clear=True)
-    out = []
-    for obj in objects:
-        mesh = obj.data
-        buf = np.empty(len(mesh.vertices) * 4, np.float32)
-        mesh.color_attributes["cycles"].data.foreach_get("color", buf)
-        out.append(buf.reshape(-1, 4)[:, :3].astype(np.float64))
-        mesh.color_attributes.remove(mesh.color_attributes["cycles"])
-    return np.concatenate(out)
-
-
 @pytest.mark.cycles
 def test_suzanne_on_ground_under_city_against_cycles(bpy_module, empty_scene):
     from prt_addon import api
@@ -288,7 +265,7 @@ def test_suzanne_on_ground_under_city_against_cycles(bpy_module, empty_scene):
     api.bake(objects, order=8, samples=1024)
     prt_seconds = time.perf_counter() - start
     start = time.perf_counter()
-    reference = cycles_vertex_bake(bpy, scene, objects, CYCLES_SAMPLES)
+    reference = np.concatenate(list(cycles_vertex_bake(bpy, scene, objects, CYCLES_SAMPLES).values()))
     cycles_seconds = time.perf_counter() - start
 
     api.project_world(scene, 8, split_lights=False)
