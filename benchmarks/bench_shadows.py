@@ -1,4 +1,4 @@
-"""Sun-shadow benchmark: frame cost with 0, 1 and 4 lights against the PRT-only frame, side by side.
+"""Sun-shadow benchmark: frame cost with 0, 1 and 4 lights and a wide light against the PRT-only frame.
 
     .venv/bin/python benchmarks/bench_shadows.py [--triangles 1000000] [--frames 11] [--size 512]
 
@@ -6,7 +6,8 @@ One baked UV sphere of N triangles over a baked ground quad, drawn by display.dr
 512x512 RGBA32F offscreen with depth test, each frame synchronised by a one-pixel read-back.
 Per light count two variants: "cached" (the shadow maps are reused) and "map drawn" (every
 frame turns the lights a little, so every map is drawn again: the cost of rotating the HDRI).
-All variants are interleaved frame by frame; medians. llvmpipe timings are noisy (shared cores).
+"1 wide light" is a light of 16 samples over a 20 degree cap, drawn from 16 maps
+(core.shadow_views) at the wide maps' resolution. All variants are interleaved frame by frame; medians. llvmpipe timings are noisy (shared cores).
 """
 
 import argparse
@@ -61,14 +62,31 @@ def suns(count, turn):
     return out
 
 
+def wide_light(turn):
+    """One light of 16 samples spread over a 20 degree cap about a tilted direction."""
+    z = np.array([0.5 * math.cos(turn), 0.5 * math.sin(turn), 1.0])
+    z /= np.linalg.norm(z)
+    x = np.cross([1.0, 0.0, 0.0], z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    i = np.arange(16) + 0.5
+    tilt = math.radians(20.0) * np.sqrt(i / 16)
+    phi = i * math.pi * (3.0 - math.sqrt(5.0))
+    dirs = np.cos(tilt)[:, None] * z + np.sin(tilt)[:, None] * (np.cos(phi)[:, None] * x + np.sin(phi)[:, None] * y)
+    angle = math.radians(20.0)
+    return [Light(z, (3.0, 2.5, 2.0), angle, samples=dirs, weights=np.full(16, 1 / 16), shadow_angle=angle)]
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--triangles", type=int, default=1_000_000)
     parser.add_argument("--frames", type=int, default=11)
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--resolution", type=int, default=shadows.RESOLUTION)
+    parser.add_argument("--wide-resolution", type=int, default=shadows.WIDE_RESOLUTION)
     args = parser.parse_args()
     shadows.RESOLUTION = args.resolution
+    shadows.WIDE_RESOLUTION = args.wide_resolution
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     prt_addon.register()
@@ -92,7 +110,7 @@ def main():
     print(f"renderer: {gpu.platform.renderer_get()}")
     print(
         f"mesh: {len(obj.data.loop_triangles):,} triangles (+ a 2-triangle ground); {args.size}x{args.size}; "
-        f"shadow maps {shadows.RESOLUTION}x{shadows.RESOLUTION}; median of {args.frames} interleaved frames"
+        f"shadow maps {shadows.RESOLUTION}x{shadows.RESOLUTION}, wide {shadows.WIDE_RESOLUTION}; median of {args.frames} interleaved frames"
     )
 
     variants = [
@@ -101,6 +119,8 @@ def main():
         ("1 light, map drawn", 1, True),
         ("4 lights, cached", 4, False),
         ("4 lights, maps drawn", 4, True),
+        ("1 wide light, cached", -1, False),
+        ("1 wide light, drawn", -1, True),
     ]
     times = {name: [] for name, _, _ in variants}
     states = {name: {} for name, _, _ in variants}  # each variant keeps its own maps
@@ -112,7 +132,7 @@ def main():
         for frame in range(args.frames + 1):
             for name, count, turning in variants:
                 turn = 1e-3 * (frame + 1) if turning else 0.0
-                lighting.set_lights_override(scene, suns(count, turn))
+                lighting.set_lights_override(scene, wide_light(turn) if count < 0 else suns(count, turn))
                 shadows._states.clear()
                 shadows._states.update(states[name])
                 fb.clear(color=(0, 0, 0, 0), depth=1.0)

@@ -186,7 +186,7 @@ def test_vertices_agree_with_traced_visibility(bpy_module, ground_scene):
     # Away from edges: the same V within 4 texels (2048 map over the 8.6 m box: 4.2 mm a texel),
     # a pixel (the image is read at the pixel holding the vertex: 34 mm) and the penumbra, in
     # every direction, so neither the map's sampling nor the filter can differ from the traced V.
-    texel = shadows.update_shadow_maps(scene, [light], depsgraph)[0].texel
+    texel = shadows.update_shadow_maps(scene, [light], depsgraph).maps[0].texel
     pixel = 2.0 * 12.0 * math.tan(0.5 * scene.camera.data.angle) / SIZE
     margin = 4.0 * texel + 1.5 * pixel + 2.0 * math.tan(light.angle) * 2.0
     same = np.ones(len(points), dtype=bool)

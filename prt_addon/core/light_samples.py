@@ -41,6 +41,19 @@ def region_samples(
         raise ValueError("a light's region has no power")
     length = np.linalg.norm(moments, axis=1)
     dirs = moments / np.where(length > 0.0, length, 1.0)[:, None]
+    cells = power_cells(dirs, weights, count)
+    cell_weight = [float(weights[cell].sum()) for cell in cells]
+    sample_dirs = np.stack([moments[cell].sum(axis=0) for cell in cells])
+    sample_dirs /= np.linalg.norm(sample_dirs, axis=1, keepdims=True)
+    sample_weights = np.array(cell_weight) / sum(cell_weight)
+    return sample_dirs, sample_weights
+
+
+def power_cells(dirs: np.ndarray, weights: np.ndarray, count: int) -> list[np.ndarray]:
+    """Index arrays of at most `count` cells of about equal power over unit directions `dirs`
+    (N, 3) with positive `weights` (N,): the heaviest cell of more than one direction is split at
+    the weighted median of its directions projected on its principal axis (the largest
+    eigenvector of their weighted covariance), both halves non-empty, until there are `count`."""
     cells = [np.arange(len(weights))]
     cell_weight = [float(weights.sum())]
     while len(cells) < count:
@@ -60,10 +73,7 @@ def region_samples(
         for part in (cell[order[:split]], cell[order[split:]]):
             cells.append(part)
             cell_weight.append(float(weights[part].sum()))
-    sample_dirs = np.stack([moments[cell].sum(axis=0) for cell in cells])
-    sample_dirs /= np.linalg.norm(sample_dirs, axis=1, keepdims=True)
-    sample_weights = np.array(cell_weight) / sum(cell_weight)
-    return sample_dirs, sample_weights
+    return cells
 
 
 def samples_to_array(lights) -> list[float]:

@@ -28,7 +28,7 @@ LOG2_MIN = -15.0  # log2 of the scene-linear range covered (about the range of A
 LOG2_MAX = 10.0
 CHECK_INTERVAL = 0.25  # seconds between the timer's comparisons of the view settings
 MAX_TABLES = 4  # tables kept (one per view-settings key: several windows, quick toggles)
-LUT_SLOT = 9  # sampler slot: 0 is the transfer texture, 1..8 the shadow maps (shader_suns)
+LUT_SLOT = 9  # sampler slot: 0 is the transfer texture, 1 and 2 the shadow maps (shader_suns)
 MERGE_GAMMA = 2.2  # Blender merges the overlay as overlay^(1/2.2) into its display code values
 
 GLSL = f"""

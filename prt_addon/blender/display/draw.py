@@ -3,9 +3,9 @@
 Per redraw (docs/display.md): the world light comes from lighting.world_light; per object it is
 rotated into the object's local frame and written into its uniform buffer only when it changed;
 the transfer batches come from gpu_cache. With split sun lights (lighting.world_lights) their
-shadow maps come from shadows.py and the sun variant of the shader is used. The viewport draws
-through the scene's display transform (colour.py), whose table the draw only uploads. Nothing
-here changes Blender data.
+shadow views (core.shadow_views) get their maps from shadows.py and the sun variant of the shader
+is used. The viewport draws through the scene's display transform (colour.py), whose table the
+draw only uploads. Nothing here changes Blender data.
 """
 
 import bpy
@@ -64,7 +64,7 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
     all_lights = list(world_lights(scene)) if objects else []
     suns = all_lights[:MAX_SUNS]
     lights_tag = tuple((tuple(x.direction), tuple(x.power), x.angle) for x in all_lights)
-    maps = update_shadow_maps(scene, suns, depsgraph) if suns else []
+    maps = update_shadow_maps(scene, suns, depsgraph) if suns else None
     drawn = 0
     for obj in objects:
         info, _problem = storage.usable_bake(obj.data, check_topology=False)
@@ -119,8 +119,8 @@ def _bind_suns(shader, state, suns, maps, matrix_world):
         state.suns_ubo.update(data)
     state.suns_bytes = data
     shader.uniform_block("suns", state.suns_ubo)
-    for index, shadow in enumerate(maps):
-        shader.uniform_sampler(f"shadow{index}", shadow.color)
+    shader.uniform_sampler("sharp_maps", maps.sharp)
+    shader.uniform_sampler("wide_maps", maps.wide)
 
 
 def _draw_callback():

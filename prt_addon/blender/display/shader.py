@@ -72,11 +72,11 @@ def transfer_vec4s(count, bounce_channels=0):
 
 
 def get_shader(count, lights=0, bounce_channels=0):
-    """Compiled shader for `count` transfer vec4s per part, `lights` suns and a bounced transfer
+    """Compiled shader for `count` transfer vec4s per part, with the suns when `lights` and a bounced transfer
     of `bounce_channels` channels (0: none) (cached). Raises RuntimeError on failure."""
     total = transfer_vec4s(count, bounce_channels)
     mode = shader_mode(total)
-    key = (mode, count, lights, bounce_channels)
+    key = (mode, count, bool(lights), bounce_channels)
     shader = _shaders.get(key)
     if shader is not None:
         return shader
@@ -126,7 +126,7 @@ def get_shader(count, lights=0, bounce_channels=0):
     if lights:
         from .shader_suns import add_suns
 
-        vertex, fragment = add_suns(info, lights, _VERTEX_COMMON % body, 2 + total if mode == "ATTR" else 2)
+        vertex, fragment = add_suns(info, _VERTEX_COMMON % body, 2 + total if mode == "ATTR" else 2)
     else:
         iface = gpu.types.GPUStageInterfaceInfo("prt_iface")
         iface.smooth("VEC3", "radiance")

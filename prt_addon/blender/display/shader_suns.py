@@ -1,44 +1,47 @@
-"""GLSL of the sun lights: per-pixel cosine term and a shadow-map visibility over the light's disc.
+"""GLSL of the sun lights: per-pixel cosine term and shadow-map visibility, summed over the lights' shadow views.
 
 Added to the PRT shader when the scene has split lights. The SH part (per vertex, clamped) is left
-as it is; the fragment shader adds albedo * sum_l P_l/pi * C_l * V_l. C_l is the light's cosine
-term as core.light_visibility.light_cosines defines it: sum_j w_j max(0, n.s_j) over its samples
-(up to MAX_SAMPLES; a light without samples is its direction, weight 1). V_l is PCSS on the
-light's orthographic depth map (shadows.py): a blocker search over the widest penumbra the disc
-can throw, then percentage-closer filtering with the penumbra radius (d_receiver - d_blocker) *
-tan(angle), both over Vogel-disc taps, with a depth bias from the receiver's slope. It is one
-map along the light's mean direction, filtered over a disc of the light's shadow angle
-(core.light_samples.shadow_angle: the power-median radius of its texels, at most the moment
-radius): for a wide light the shadow is that disc's, where api.shade traces each sample.
+as it is; the fragment shader adds albedo * sum_v P_v/pi * C_v * V_v over the shadow views
+(core.shadow_views): a compact light is one view holding all its samples, a wide light one view
+per group of its samples. C_v is the view's cosine term as core.light_visibility.light_cosines
+defines it, over its own samples: sum_j w_j max(0, n.s_j). V_v is PCSS on the view's orthographic
+depth map (shadows.py; a layer of the compact or of the wide maps' array): a blocker search over
+the widest penumbra the view's disc can throw, then percentage-closer filtering with the penumbra
+radius (d_receiver - d_blocker) * tan(angle), both over Vogel-disc taps, with a depth bias from
+the receiver's slope to the view's direction.
 """
 
 import gpu
 import numpy as np
 
-from ...core.light_samples import shadow_angle
+from ...core.shadow_views import MAX_SAMPLES, MAX_WIDE_VIEWS
 
 MAX_SUNS = 8
-MAX_SAMPLES = 16  # samples per light in the cosine term (core.light_samples.SAMPLES_PER_LIGHT)
-MIN_COSINE = 0.05  # the slope bias's cosine when the mean direction is at or below the horizon
-SHADOW_SLOT = 1  # sampler slots 1..8 (slot 0 is the transfer texture)
+MAX_VIEWS = MAX_SUNS + MAX_WIDE_VIEWS
+MIN_COSINE = 0.05  # the slope bias's cosine when the view's direction is at or below the horizon
+SHARP_SLOT = 1  # the compact lights' maps (slot 0 is the transfer texture)
+WIDE_SLOT = 2  # the wide lights' views' maps
 BLOCKER_TAPS = 12
 PCF_TAPS = 16
+WIDE_BLOCKER_TAPS = 6  # a wide light's views: many maps average out, each one filters less
+WIDE_PCF_TAPS = 8
 MAX_RADIUS = 16.0  # texels: widest penumbra filtered
 MAX_SLOPE = 20.0  # tan of the receiver's angle to the light, capped for the bias
 
 UBO_SOURCE = (
-    f"struct PRTSuns {{ vec4 nrm[3]; vec4 to_light[{3 * MAX_SUNS}]; vec4 dir[{MAX_SUNS}]; "
-    f"vec4 power[{MAX_SUNS}]; vec4 params[{MAX_SUNS}]; vec4 samples[{MAX_SUNS * MAX_SAMPLES}]; }};\n"
+    f"struct PRTSuns {{ vec4 header; vec4 nrm[3]; vec4 to_light[{3 * MAX_VIEWS}]; vec4 dir[{MAX_VIEWS}]; "
+    f"vec4 power[{MAX_VIEWS}]; vec4 params[{MAX_VIEWS}]; vec4 range[{MAX_VIEWS}]; "
+    f"vec4 samples[{MAX_SUNS * MAX_SAMPLES}]; }};\n"
 )
 
 _FUNCTIONS = f"""
-float sun_depth(sampler2D map, vec2 xy, float res)
+float sun_depth(sampler2DArray maps, vec2 xy, float layer, float res)
 {{
   ivec2 t = ivec2(floor(xy));
   if (t.x < 0 || t.y < 0 || t.x >= int(res) || t.y >= int(res)) {{
     return 1.0e30;
   }}
-  return texelFetch(map, t, 0).r;
+  return texelFetch(maps, ivec3(t, int(layer)), 0).r;
 }}
 
 vec2 vogel(int i, int n)
@@ -48,31 +51,34 @@ vec2 vogel(int i, int n)
   return r * vec2(cos(a), sin(a));
 }}
 
-float sun_cosine(vec3 n, int l)
+float view_cosine(vec3 n, int v)
 {{
+  int first = int(suns.range[v].x);
+  int count = int(suns.range[v].y);
   float sum = 0.0;
-  for (int j = 0; j < {MAX_SAMPLES}; j++) {{
-    vec4 s = suns.samples[{MAX_SAMPLES} * l + j];
+  for (int j = first; j < first + count; j++) {{
+    vec4 s = suns.samples[j];
     sum += s.w * max(dot(n, s.xyz), 0.0);
   }}
   return sum;
 }}
 
-float sun_visibility(sampler2D map, int l, float c)
+float view_visibility(sampler2DArray maps, int v, float c, int blocker_taps, int pcf_taps)
 {{
   vec4 p = vec4(local_pos, 1.0);
-  vec3 q = vec3(dot(suns.to_light[3 * l], p), dot(suns.to_light[3 * l + 1], p),
-                dot(suns.to_light[3 * l + 2], p));
-  float texel = suns.params[l].x;
-  float tan_a = suns.params[l].y;
-  float res = suns.params[l].z;
+  vec3 q = vec3(dot(suns.to_light[3 * v], p), dot(suns.to_light[3 * v + 1], p),
+                dot(suns.to_light[3 * v + 2], p));
+  float texel = suns.params[v].x;
+  float tan_a = suns.params[v].y;
+  float res = suns.params[v].z;
+  float layer = suns.range[v].z;
   float slope = min(sqrt(max(1.0 - c * c, 0.0)) / c, {MAX_SLOPE});
   float search = clamp(q.z * tan_a / texel, 1.0, {MAX_RADIUS});
   float limit = q.z - texel * (1.0 + (search + 1.0) * slope);
   float sum = 0.0;
   float found = 0.0;
-  for (int i = 0; i < {BLOCKER_TAPS}; i++) {{
-    float d = sun_depth(map, q.xy + search * vogel(i, {BLOCKER_TAPS}), res);
+  for (int i = 0; i < blocker_taps; i++) {{
+    float d = sun_depth(maps, q.xy + search * vogel(i, blocker_taps), layer, res);
     if (d < limit) {{
       sum += d;
       found += 1.0;
@@ -84,20 +90,20 @@ float sun_visibility(sampler2D map, int l, float c)
   float radius = clamp((q.z - sum / found) * tan_a / texel, 0.5, {MAX_RADIUS});
   limit = q.z - texel * (1.0 + (radius + 1.0) * slope);
   float lit = 0.0;
-  for (int i = 0; i < {PCF_TAPS}; i++) {{
-    lit += step(limit, sun_depth(map, q.xy + radius * vogel(i, {PCF_TAPS}), res));
+  for (int i = 0; i < pcf_taps; i++) {{
+    lit += step(limit, sun_depth(maps, q.xy + radius * vogel(i, pcf_taps), layer, res));
   }}
-  return lit / {float(PCF_TAPS)};
+  return lit / float(pcf_taps);
 }}
 """
 
 
-def add_suns(info, lights, vertex_source, attr_index):
+def add_suns(info, vertex_source, attr_index):
     """Declare the sun inputs on `info`; -> (vertex source, fragment source)."""
     info.uniform_buf(1, "PRTSuns", "suns")
     info.vertex_in(attr_index, "VEC3", "prt_nrm")
-    for l in range(lights):
-        info.sampler(SHADOW_SLOT + l, "FLOAT_2D", f"shadow{l}")
+    info.sampler(SHARP_SLOT, "FLOAT_2D_ARRAY", "sharp_maps")
+    info.sampler(WIDE_SLOT, "FLOAT_2D_ARRAY", "wide_maps")
     iface = gpu.types.GPUStageInterfaceInfo("prt_sun_iface")
     iface.smooth("VEC3", "radiance")
     iface.smooth("VEC3", "surface_albedo")
@@ -111,46 +117,50 @@ def add_suns(info, lights, vertex_source, attr_index):
         "  local_nrm = prt_nrm;\n"
         "  gl_Position = mvp",
     )
-    per_light = "\n".join(
-        f"  c = sun_cosine(n, {l});\n"
-        f"  if (c > 0.0) {{\n"
-        f"    float v = sun_visibility(shadow{l}, {l}, max(dot(n, suns.dir[{l}].xyz), {MIN_COSINE}));\n"
-        f"    sun += suns.power[{l}].rgb * (c * v);\n"
-        f"  }}"
-        for l in range(lights)
-    )
     fragment = _FUNCTIONS + (
         "void main()\n{\n"
         "  vec3 n = normalize(vec3(dot(suns.nrm[0].xyz, local_nrm), dot(suns.nrm[1].xyz, local_nrm),\n"
         "                          dot(suns.nrm[2].xyz, local_nrm)));\n"
         "  vec3 sun = vec3(0.0);\n"
-        "  float c;\n"
-        f"{per_light}\n"
+        "  int views = int(suns.header.x);\n"
+        "  for (int v = 0; v < views; v++) {\n"
+        "    float c = view_cosine(n, v);\n"
+        "    if (c > 0.0) {\n"
+        f"      float bias_cos = max(dot(n, suns.dir[v].xyz), {MIN_COSINE});\n"
+        "      float vis = suns.range[v].w > 0.5\n"
+        f"        ? view_visibility(wide_maps, v, bias_cos, {WIDE_BLOCKER_TAPS}, {WIDE_PCF_TAPS})\n"
+        f"        : view_visibility(sharp_maps, v, bias_cos, {BLOCKER_TAPS}, {PCF_TAPS});\n"
+        "      sun += suns.power[v].rgb * (c * vis);\n"
+        "    }\n"
+        "  }\n"
         "  FragColor = vec4(display_transform(radiance + surface_albedo * sun), 1.0);\n"
         "}\n"
     )
     return vertex, fragment
 
 
-def suns_ubo_bytes(lights, maps, matrix_world):
-    """std140 bytes of PRTSuns for one object: its normal matrix, and per light the local ->
-    (texel x, texel y, depth) rows, the direction, P / pi, (texel size, tan shadow angle, resolution)
-    and the samples (direction, weight; the first MAX_SAMPLES, their weights renormalised)."""
+def suns_ubo_bytes(lights, shadow_set, matrix_world):
+    """std140 bytes of PRTSuns for one object: the view count, its normal matrix, and per view
+    (core.shadow_views) the local -> (texel x, texel y, depth) rows of its map, its direction,
+    P / pi of its light, (texel size, tan filter angle, resolution), (first sample, sample count,
+    layer, wide) and the samples (direction, weight)."""
     mw = np.asarray(matrix_world, dtype=np.float64)
-    data = np.zeros((3 + 6 * MAX_SUNS + MAX_SUNS * MAX_SAMPLES, 4))
-    data[0:3, :3] = np.linalg.inv(mw[:3, :3]).T
-    for l, (light, shadow) in enumerate(zip(lights, maps)):
-        data[3 + 3 * l : 6 + 3 * l] = shadow.rows @ mw
-        base = 3 + 3 * MAX_SUNS
-        data[base + l, :3] = light.direction / np.linalg.norm(light.direction)
-        data[base + MAX_SUNS + l, :3] = light.power / np.pi
-        penumbra = min(shadow_angle(light), 1.5)
-        data[base + 2 * MAX_SUNS + l, :3] = (shadow.texel, np.tan(penumbra), shadow.resolution)
-        first = base + 3 * MAX_SUNS + MAX_SAMPLES * l
-        if light.samples is None:
-            data[first] = (*data[base + l, :3], 1.0)
-        else:
-            count = min(len(light.samples), MAX_SAMPLES)
-            data[first : first + count, :3] = light.samples[:count]
-            data[first : first + count, 3] = light.weights[:count] / light.weights[:count].sum()
+    base = 4 + 3 * MAX_VIEWS
+    data = np.zeros((base + 4 * MAX_VIEWS + MAX_SUNS * MAX_SAMPLES, 4))
+    views = shadow_set.views
+    data[0, 0] = len(views)
+    data[1:4, :3] = np.linalg.inv(mw[:3, :3]).T
+    first = 0
+    for v, (view, placed) in enumerate(zip(views, shadow_set.maps)):
+        data[4 + 3 * v : 7 + 3 * v] = placed.rows @ mw
+        data[base + v, :3] = view.direction
+        data[base + MAX_VIEWS + v, :3] = lights[view.light].power / np.pi
+        penumbra = min(view.angle, 1.5)
+        data[base + 2 * MAX_VIEWS + v, :3] = (placed.texel, np.tan(penumbra), placed.resolution)
+        count = len(view.weights)
+        data[base + 3 * MAX_VIEWS + v] = (first, count, placed.layer, 1.0 if placed.wide else 0.0)
+        at = base + 4 * MAX_VIEWS + first
+        data[at : at + count, :3] = view.samples
+        data[at : at + count, 3] = view.weights
+        first += count
     return data.astype(np.float32).tobytes()

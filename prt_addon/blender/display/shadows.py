@@ -1,20 +1,24 @@
-"""Shadow maps of the split sun lights: one orthographic depth map per light over all visible meshes.
+"""Shadow maps of the split lights: one orthographic depth map per shadow view over all visible meshes.
 
-Every visible mesh casts (baked or not), from its evaluated world-space triangles. Each map is an
-R32F texture holding the depth from the light's near plane in world units (cleared to FAR), drawn
-with a depth buffer from the light's direction and fitted to the bounding box of the casters. The
-caster batch is rebuilt only when the geometry signature changes (objects, transforms, element
-counts, and a generation counter the depsgraph handler bumps on geometry updates); a map is drawn
-again only when its light's direction or the geometry changed.
+The views come from core.shadow_views (one per compact light, one per sample group of a wide
+light). Every visible mesh casts (baked or not), from its evaluated world-space triangles. Each
+map is a layer of an R32F array texture holding the depth from the view's near plane in world
+units (cleared to FAR), drawn with a depth buffer from the view's direction and fitted to the
+bounding box of the casters: the compact lights' maps at RESOLUTION, the wide lights' at
+WIDE_RESOLUTION. The caster batch is rebuilt only when the geometry signature changes (objects,
+transforms, element counts, and a generation counter the depsgraph handler bumps on geometry
+updates); a map is drawn again only when its view's direction or the geometry changed.
 """
 
 import bpy
 import gpu
 import numpy as np
 
+from ...core.shadow_views import shadow_views, wide_view_budget
 from .. import mesh_read
 
-RESOLUTION = 2048
+RESOLUTION = 2048  # the compact lights' maps
+WIDE_RESOLUTION = 1024  # a wide light's maps (core.shadow_views): softer, and many of them
 FAR = 1.0e30
 PAD = 0.01  # fraction of the box diagonal added around the casters
 
@@ -37,31 +41,59 @@ void main()
 _depth_shader = []
 _generation = [0]
 _states = {}  # scene pointer -> ShadowState
+_empty = []  # the 1-texel array bound for an empty set of maps
 
 
-class ShadowMap:
-    """One light's map: R32F texture, world -> (texel x, texel y, depth) rows, texel size."""
+class LayeredMaps:
+    """`layers` maps of one resolution: an R32F array texture, one depth buffer they share (the
+    maps are drawn one after the other) and a framebuffer per layer; per layer the key it was
+    drawn for."""
 
-    __slots__ = ("key", "color", "depth", "framebuffer", "rows", "texel", "resolution")
+    __slots__ = ("resolution", "layers", "color", "depth", "framebuffers", "keys")
 
-    def __init__(self, resolution):
+    def __init__(self, resolution, layers):
         self.resolution = resolution
-        self.color = gpu.types.GPUTexture((resolution, resolution), format="R32F")
+        self.layers = layers
+        self.color = gpu.types.GPUTexture((resolution, resolution), layers=layers, format="R32F")
         self.depth = gpu.types.GPUTexture((resolution, resolution), format="DEPTH_COMPONENT32F")
-        self.framebuffer = gpu.types.GPUFrameBuffer(depth_slot=self.depth, color_slots=(self.color,))
-        self.key = None
-        self.rows = None
-        self.texel = 0.0
+        self.framebuffers = [
+            gpu.types.GPUFrameBuffer(depth_slot=self.depth, color_slots=({"texture": self.color, "layer": i},))
+            for i in range(layers)
+        ]
+        self.keys = [None] * layers
+
+
+class ViewMap:
+    """Where one view's map is: world -> (texel x, texel y, depth) rows, texel size, resolution,
+    its layer and whether it is in the wide views' maps."""
+
+    __slots__ = ("rows", "texel", "resolution", "layer", "wide")
+
+    def __init__(self, rows, texel, resolution, layer, wide):
+        self.rows, self.texel, self.resolution, self.layer, self.wide = rows, texel, resolution, layer, wide
+
+
+class ShadowSet:
+    """The maps of a frame: the lights' views (core.shadow_views.ShadowView), one ViewMap per view
+    (same order) and the two array textures (the compact lights' at RESOLUTION, the wide lights'
+    views' at WIDE_RESOLUTION; a 1-texel array stands in for an empty one, as a sampler is bound
+    even when it is not read)."""
+
+    __slots__ = ("views", "maps", "sharp", "wide")
+
+    def __init__(self, views, maps, sharp, wide):
+        self.views, self.maps, self.sharp, self.wide = views, maps, sharp, wide
 
 
 class ShadowState:
-    __slots__ = ("geometry_key", "batch", "box", "maps")
+    __slots__ = ("geometry_key", "batch", "box", "triangles", "arrays")
 
     def __init__(self):
         self.geometry_key = None
         self.batch = None
         self.box = None
-        self.maps = []
+        self.triangles = 0
+        self.arrays = {}  # wide flag -> LayeredMaps
 
 
 def geometry_changed():
@@ -72,6 +104,7 @@ def geometry_changed():
 def clear_shadows():
     _states.clear()
     _depth_shader.clear()
+    _empty.clear()
 
 
 def _shader():
@@ -189,16 +222,16 @@ def _build_batch(positions, triangles):
     return gpu.types.GPUBatch(type="TRIS", buf=vbo, elem=ibo)
 
 
-def _render(shadow, batch, clip, rows, resolution):
+def _render(framebuffer, batch, clip, rows, resolution):
     import mathutils
 
     viewport = gpu.state.viewport_get()
     depth_test = gpu.state.depth_test_get()
     depth_mask = gpu.state.depth_mask_get()
     try:
-        with shadow.framebuffer.bind():
+        with framebuffer.bind():
             gpu.state.viewport_set(0, 0, resolution, resolution)
-            shadow.framebuffer.clear(color=(FAR, 0.0, 0.0, 1.0), depth=1.0)
+            framebuffer.clear(color=(FAR, 0.0, 0.0, 1.0), depth=1.0)
             gpu.state.depth_test_set("LESS_EQUAL")
             gpu.state.depth_mask_set(True)
             gpu.state.face_culling_set("NONE")
@@ -217,9 +250,28 @@ def scene_view_layer(scene):
     return bpy.context.view_layer if scene == bpy.context.scene else scene.view_layers[0]
 
 
-def update_shadow_maps(scene, lights, depsgraph=None, view_layer=None, resolution=None):
-    """The scene's ShadowMap per light (list, same order), drawn again only where needed."""
-    resolution = resolution or RESOLUTION
+def _empty_array():
+    if not _empty:
+        _empty.append(gpu.types.GPUTexture((1, 1), layers=1, format="R32F"))
+    return _empty[0]
+
+
+def _arrays(state, wide, layers, resolution):
+    """The state's LayeredMaps for `wide`, reallocated when its layer count or resolution changed."""
+    maps = state.arrays.get(wide)
+    if layers == 0:
+        state.arrays.pop(wide, None)
+        return None
+    if maps is None or maps.layers != layers or maps.resolution != resolution:
+        maps = state.arrays[wide] = LayeredMaps(resolution, layers)
+    return maps
+
+
+def update_shadow_maps(scene, lights, depsgraph=None, view_layer=None, resolution=None, wide_resolution=None):
+    """The scene's ShadowSet for `lights` (core.lights.Light list): their views
+    (core.shadow_views, as many wide maps as the casters' triangles allow), each map drawn again
+    only when its direction or the geometry changed."""
+    sizes = {False: resolution or RESOLUTION, True: wide_resolution or WIDE_RESOLUTION}
     state = _states.setdefault(scene.as_pointer(), ShadowState())
     objects = caster_objects(scene, view_layer or scene_view_layer(scene))
     key = geometry_signature(objects, depsgraph)
@@ -231,20 +283,26 @@ def update_shadow_maps(scene, lights, depsgraph=None, view_layer=None, resolutio
             if len(positions)
             else None
         )
+        state.triangles = len(triangles)
         state.geometry_key = key
-    state.maps = [m for m in state.maps if m.resolution == resolution]
-    while len(state.maps) < len(lights):
-        state.maps.append(ShadowMap(resolution))
-    del state.maps[len(lights) :]
-    for light, shadow in zip(lights, state.maps):
-        map_key = (key, np.asarray(light.direction, dtype=np.float64).tobytes())
-        if shadow.key == map_key:
-            continue
+    views = shadow_views(lights, max_wide_views=wide_view_budget(state.triangles))
+    arrays = {}
+    for wide in (False, True):
+        arrays[wide] = _arrays(state, wide, sum(1 for v in views if v.wide == wide), sizes[wide])
+    placed, next_layer = [], {False: 0, True: 0}
+    for view in views:
+        wide = bool(view.wide)
+        maps, layer = arrays[wide], next_layer[wide]
+        next_layer[wide] += 1
+        size = maps.resolution
         if state.box is None:
-            shadow.rows = np.array([[0, 0, 0, -1.0], [0, 0, 0, -1.0], [0, 0, 0, 0.0]])
-            shadow.texel = 1.0
+            rows, texel, clip = np.array([[0, 0, 0, -1.0], [0, 0, 0, -1.0], [0, 0, 0, 0.0]]), 1.0, None
         else:
-            shadow.rows, clip, shadow.texel = light_rows(light.direction, state.box, resolution)
-            _render(shadow, state.batch, clip, shadow.rows, resolution)
-        shadow.key = map_key
-    return state.maps
+            rows, clip, texel = light_rows(view.direction, state.box, size)
+        map_key = (key, np.asarray(view.direction, dtype=np.float64).tobytes())
+        if clip is not None and maps.keys[layer] != map_key:
+            _render(maps.framebuffers[layer], state.batch, clip, rows, size)
+        maps.keys[layer] = map_key
+        placed.append(ViewMap(rows, texel, size, layer, wide))
+    textures = {wide: (arrays[wide].color if arrays[wide] is not None else _empty_array()) for wide in (False, True)}
+    return ShadowSet(views, placed, textures[False], textures[True])
