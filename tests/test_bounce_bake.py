@@ -189,7 +189,11 @@ def test_viewport_draws_the_bounced_transfer_as_shade_computes_it(bpy_module, em
     want = expected[inside]
     err = np.abs(got - want) / (np.abs(want) + 0.05)
     assert inside.sum() > 40
-    assert np.median(err) < 0.01, np.median(err)  # (away from shadow edges: the sun's shadow map)
+    # Under courtyard the split lights are four patches of 4 to 23 degrees (45 % of the power):
+    # their shadows come from maps, where api.shade traces rays (docs/display.md, "Sun shadows"),
+    # measured 1.6-2.0 % (api.shade itself is 0.5 % from a 64-ray-per-sample trace; one filtered
+    # map per light was 6-7 %). Without split lights (order 2, uniform world) 0.18 %.
+    assert np.median(err) < (0.025 if hdri else 0.01), np.median(err)
 
 
 def test_export_carries_the_bounced_transfer(bpy_module, empty_scene, tmp_path):

@@ -25,15 +25,16 @@ def test_a_small_bright_disc_sets_no_compact_limit(factor):
 
 
 def test_the_compact_term_keeps_the_bright_texels_within_the_budget():
-    """A 30 degree cap of 50 on a sky of 1 covers 6.7 % of the sphere: within a 10 % budget it is
-    split at MEAN_FACTOR x mean; with the rule's 1 % budget T rises to the cap's own value (no
-    light)."""
+    """A 30 degree cap of 50 on a sky of 1 covers 6.7 % of the sphere: within the rule's 10 %
+    budget it is split at MEAN_FACTOR x mean; with a 1 % budget T rises to the cap's own value
+    (no light)."""
     image = sky_with_discs([(unit(-60.0, 30.0), np.radians(30.0), 50.0)], height=HEIGHT, width=WIDTH)
     mean = mean_luminance(image)
-    assert lights.MEAN_FACTOR * mean < 50.0 and lights.COMPACT_FRACTION == 0.01
-    loose = lights.auto_threshold(image, compact_fraction=0.1)
+    assert lights.MEAN_FACTOR * mean < 50.0 and lights.COMPACT_FRACTION == 0.1
+    loose = lights.auto_threshold(image)
     assert loose == pytest.approx(lights.MEAN_FACTOR * mean, rel=1e-12)
-    strict = lights.auto_threshold(image)
+    assert len(lights.extract_lights(image, loose)[1]) == 1
+    strict = lights.auto_threshold(image, compact_fraction=0.01)
     assert strict == pytest.approx(50.0, rel=1e-6)
     lum = image.astype(np.float64) @ lights.LUMA
     solid = np.broadcast_to(pixel_solid_angles(HEIGHT, WIDTH)[:, None], lum.shape)

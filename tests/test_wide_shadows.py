@@ -112,7 +112,7 @@ def test_a_heavier_scene_draws_fewer_wide_maps(bpy_module, ground_scene, monkeyp
     monkeypatch.setattr(shadow_views, "WIDE_TRIANGLES", 4 * triangles)
     shadows.geometry_changed()
     placed = shadows.update_shadow_maps(scene, [light], depsgraph).maps
-    assert [(m.layer, m.wide) for m in placed] == [(0, True), (1, True), (2, True), (3, True)]
+    assert [(m.origin, m.wide) for m in placed] == [((1024 * i, 0), True) for i in range(4)]
     coarse = render(scene)
     lit = full[..., 3] > 0
     assert 0.0 < np.abs(coarse - full)[lit].mean() < 0.01

@@ -28,8 +28,8 @@ from .light_visibility import disc_directions, light_cosines, light_irradiance, 
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 MAX_LIGHTS = 8
-MEAN_FACTOR = 8.0  # threshold rule: see auto_threshold
-COMPACT_FRACTION = 0.01
+MEAN_FACTOR = 3.0  # threshold rule: see auto_threshold
+COMPACT_FRACTION = 0.10
 MIN_SHARE = 0.005  # regions with less of the world's luminance power stay in the residual
 FLOATS_PER_LIGHT = 7  # direction 3, power 3, angle 1
 LUMINANCE_ROWS = 16  # rows converted to float64 at a time (stays in cache: measured fastest)
@@ -136,13 +136,14 @@ def auto_threshold(
 ) -> float:
     """Luminance threshold T above which texels are split off as lights.
 
-    T = max(8 * mean, T_compact): mean is the solid-angle-weighted mean luminance of the image
+    T = max(3 * mean, T_compact): mean is the solid-angle-weighted mean luminance of the image
     (pixel policy of the projection applied), T_compact the smallest value such that the texels
-    brighter than it cover at most 1 % of the sphere (a cap of 11.5 degrees radius). A texel is a
-    light only if it is 8 times brighter than the average sky, and the lights stay compact enough
-    for the viewport's shadow maps to draw their penumbrae (docs/lights.md, "Threshold rule"). A
-    uniform or one-colour image gives T = 8 * its luminance, so no texel exceeds it.
-    mean_factor and compact_fraction replace the 8 and the 1 % (to measure the rule;
+    brighter than it cover at most 10 % of the sphere (a cap of 37 degrees radius). A texel is a
+    light only if it is 3 times brighter than the average sky; what is split off that way may be
+    a broad patch of sky, shaded by samples of its own texels and drawn by the viewport from
+    several shadow maps (docs/lights.md, "Threshold rule"). A uniform or one-colour image gives
+    T = 3 * its luminance, so no texel exceeds it.
+    mean_factor and compact_fraction replace the 3 and the 10 % (to measure the rule;
     extract_lights always uses the constants).
     """
     rgb = as_rgb_image(pixels)

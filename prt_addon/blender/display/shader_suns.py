@@ -5,10 +5,12 @@ as it is; the fragment shader adds albedo * sum_v P_v/pi * C_v * V_v over the sh
 (core.shadow_views): a compact light is one view holding all its samples, a wide light one view
 per group of its samples. C_v is the view's cosine term as core.light_visibility.light_cosines
 defines it, over its own samples: sum_j w_j max(0, n.s_j). V_v is PCSS on the view's orthographic
-depth map (shadows.py; a layer of the compact or of the wide maps' array): a blocker search over
+depth map (shadows.py; a tile of the compact or of the wide maps' atlas): a blocker search over
 the widest penumbra the view's disc can throw, then percentage-closer filtering with the penumbra
-radius (d_receiver - d_blocker) * tan(angle), both over Vogel-disc taps, with a depth bias from
-the receiver's slope to the view's direction.
+radius (d_receiver - d_blocker) * tan(angle), both over Vogel-disc taps. Each tap is compared with
+the receiver's own plane at that texel's centre (receiver-plane depth bias: the plane's depth
+slope in the map follows from the normal), less a bias of one texel plus that slope, so the bias
+does not grow with the filter's radius.
 """
 
 import gpu
@@ -30,18 +32,18 @@ MAX_SLOPE = 20.0  # tan of the receiver's angle to the light, capped for the bia
 
 UBO_SOURCE = (
     f"struct PRTSuns {{ vec4 header; vec4 nrm[3]; vec4 to_light[{3 * MAX_VIEWS}]; vec4 dir[{MAX_VIEWS}]; "
-    f"vec4 power[{MAX_VIEWS}]; vec4 params[{MAX_VIEWS}]; vec4 range[{MAX_VIEWS}]; "
+    f"vec4 axes[{2 * MAX_VIEWS}]; vec4 power[{MAX_VIEWS}]; vec4 params[{MAX_VIEWS}]; vec4 range[{MAX_VIEWS}]; "
     f"vec4 samples[{MAX_SUNS * MAX_SAMPLES}]; }};\n"
 )
 
 _FUNCTIONS = f"""
-float sun_depth(sampler2DArray maps, vec2 xy, float layer, float res)
+float sun_depth(sampler2D maps, vec2 xy, ivec2 origin, float res)
 {{
   ivec2 t = ivec2(floor(xy));
   if (t.x < 0 || t.y < 0 || t.x >= int(res) || t.y >= int(res)) {{
     return 1.0e30;
   }}
-  return texelFetch(maps, ivec3(t, int(layer)), 0).r;
+  return texelFetch(maps, origin + t, 0).r;
 }}
 
 vec2 vogel(int i, int n)
@@ -63,7 +65,7 @@ float view_cosine(vec3 n, int v)
   return sum;
 }}
 
-float view_visibility(sampler2DArray maps, int v, float c, int blocker_taps, int pcf_taps)
+float view_visibility(sampler2D maps, int v, vec3 n, int blocker_taps, int pcf_taps)
 {{
   vec4 p = vec4(local_pos, 1.0);
   vec3 q = vec3(dot(suns.to_light[3 * v], p), dot(suns.to_light[3 * v + 1], p),
@@ -71,15 +73,24 @@ float view_visibility(sampler2DArray maps, int v, float c, int blocker_taps, int
   float texel = suns.params[v].x;
   float tan_a = suns.params[v].y;
   float res = suns.params[v].z;
-  float layer = suns.range[v].z;
-  float slope = min(sqrt(max(1.0 - c * c, 0.0)) / c, {MAX_SLOPE});
+  ivec2 origin = ivec2(suns.range[v].zw);
+  // The receiver's plane in the map: depth changes by texel (n.t, n.b) / n.s per texel.
+  vec2 grad = vec2(dot(n, suns.axes[2 * v].xyz), dot(n, suns.axes[2 * v + 1].xyz))
+              / max(dot(n, suns.dir[v].xyz), {MIN_COSINE});
+  float slope = length(grad);
+  if (slope > {MAX_SLOPE}) {{
+    grad *= {MAX_SLOPE} / slope;
+    slope = {MAX_SLOPE};
+  }}
+  grad *= texel;
+  float bias = texel * (1.0 + slope);
   float search = clamp(q.z * tan_a / texel, 1.0, {MAX_RADIUS});
-  float limit = q.z - texel * (1.0 + (search + 1.0) * slope);
   float sum = 0.0;
   float found = 0.0;
   for (int i = 0; i < blocker_taps; i++) {{
-    float d = sun_depth(maps, q.xy + search * vogel(i, blocker_taps), layer, res);
-    if (d < limit) {{
+    vec2 xy = q.xy + search * vogel(i, blocker_taps);
+    float d = sun_depth(maps, xy, origin, res);
+    if (d < q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias) {{
       sum += d;
       found += 1.0;
     }}
@@ -88,10 +99,10 @@ float view_visibility(sampler2DArray maps, int v, float c, int blocker_taps, int
     return 1.0;
   }}
   float radius = clamp((q.z - sum / found) * tan_a / texel, 0.5, {MAX_RADIUS});
-  limit = q.z - texel * (1.0 + (radius + 1.0) * slope);
   float lit = 0.0;
   for (int i = 0; i < pcf_taps; i++) {{
-    lit += step(limit, sun_depth(maps, q.xy + radius * vogel(i, pcf_taps), layer, res));
+    vec2 xy = q.xy + radius * vogel(i, pcf_taps);
+    lit += step(q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias, sun_depth(maps, xy, origin, res));
   }}
   return lit / float(pcf_taps);
 }}
@@ -102,8 +113,8 @@ def add_suns(info, vertex_source, attr_index):
     """Declare the sun inputs on `info`; -> (vertex source, fragment source)."""
     info.uniform_buf(1, "PRTSuns", "suns")
     info.vertex_in(attr_index, "VEC3", "prt_nrm")
-    info.sampler(SHARP_SLOT, "FLOAT_2D_ARRAY", "sharp_maps")
-    info.sampler(WIDE_SLOT, "FLOAT_2D_ARRAY", "wide_maps")
+    info.sampler(SHARP_SLOT, "FLOAT_2D", "sharp_maps")
+    info.sampler(WIDE_SLOT, "FLOAT_2D", "wide_maps")
     iface = gpu.types.GPUStageInterfaceInfo("prt_sun_iface")
     iface.smooth("VEC3", "radiance")
     iface.smooth("VEC3", "surface_albedo")
@@ -126,10 +137,9 @@ def add_suns(info, vertex_source, attr_index):
         "  for (int v = 0; v < views; v++) {\n"
         "    float c = view_cosine(n, v);\n"
         "    if (c > 0.0) {\n"
-        f"      float bias_cos = max(dot(n, suns.dir[v].xyz), {MIN_COSINE});\n"
-        "      float vis = suns.range[v].w > 0.5\n"
-        f"        ? view_visibility(wide_maps, v, bias_cos, {WIDE_BLOCKER_TAPS}, {WIDE_PCF_TAPS})\n"
-        f"        : view_visibility(sharp_maps, v, bias_cos, {BLOCKER_TAPS}, {PCF_TAPS});\n"
+        "      float vis = suns.params[v].w > 0.5\n"
+        f"        ? view_visibility(wide_maps, v, n, {WIDE_BLOCKER_TAPS}, {WIDE_PCF_TAPS})\n"
+        f"        : view_visibility(sharp_maps, v, n, {BLOCKER_TAPS}, {PCF_TAPS});\n"
         "      sun += suns.power[v].rgb * (c * vis);\n"
         "    }\n"
         "  }\n"
@@ -141,26 +151,30 @@ def add_suns(info, vertex_source, attr_index):
 
 def suns_ubo_bytes(lights, shadow_set, matrix_world):
     """std140 bytes of PRTSuns for one object: the view count, its normal matrix, and per view
-    (core.shadow_views) the local -> (texel x, texel y, depth) rows of its map, its direction,
-    P / pi of its light, (texel size, tan filter angle, resolution), (first sample, sample count,
-    layer, wide) and the samples (direction, weight)."""
+    (core.shadow_views) the local -> (texel x, texel y, depth) rows of its map, its direction, the
+    map's world axes t and b, P / pi of its light, (texel size, tan filter angle, resolution, wide),
+    (first sample, sample count, the first texel of its tile in the atlas) and the samples
+    (direction, weight)."""
     mw = np.asarray(matrix_world, dtype=np.float64)
-    base = 4 + 3 * MAX_VIEWS
-    data = np.zeros((base + 4 * MAX_VIEWS + MAX_SUNS * MAX_SAMPLES, 4))
     views = shadow_set.views
+    rows_at, dir_at = 4, 4 + 3 * MAX_VIEWS
+    axes_at = dir_at + MAX_VIEWS
+    power_at = axes_at + 2 * MAX_VIEWS
+    params_at, range_at = power_at + MAX_VIEWS, power_at + 2 * MAX_VIEWS
+    samples_at = power_at + 3 * MAX_VIEWS
+    data = np.zeros((samples_at + MAX_SUNS * MAX_SAMPLES, 4))
     data[0, 0] = len(views)
     data[1:4, :3] = np.linalg.inv(mw[:3, :3]).T
     first = 0
     for v, (view, placed) in enumerate(zip(views, shadow_set.maps)):
-        data[4 + 3 * v : 7 + 3 * v] = placed.rows @ mw
-        data[base + v, :3] = view.direction
-        data[base + MAX_VIEWS + v, :3] = lights[view.light].power / np.pi
-        penumbra = min(view.angle, 1.5)
-        data[base + 2 * MAX_VIEWS + v, :3] = (placed.texel, np.tan(penumbra), placed.resolution)
+        data[rows_at + 3 * v : rows_at + 3 * v + 3] = placed.rows @ mw
+        data[dir_at + v, :3] = view.direction
+        data[axes_at + 2 * v : axes_at + 2 * v + 2, :3] = placed.rows[:2, :3] * placed.texel  # unit t, b
+        data[power_at + v, :3] = lights[view.light].power / np.pi
+        wide = 1.0 if placed.wide else 0.0
+        data[params_at + v] = (placed.texel, np.tan(min(view.angle, 1.5)), placed.resolution, wide)
         count = len(view.weights)
-        data[base + 3 * MAX_VIEWS + v] = (first, count, placed.layer, 1.0 if placed.wide else 0.0)
-        at = base + 4 * MAX_VIEWS + first
-        data[at : at + count, :3] = view.samples
-        data[at : at + count, 3] = view.weights
+        data[range_at + v] = (first, count, *placed.origin)
+        data[samples_at + first : samples_at + first + count] = np.c_[view.samples, view.weights]
         first += count
     return data.astype(np.float32).tobytes()

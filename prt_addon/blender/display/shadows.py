@@ -2,8 +2,8 @@
 
 The views come from core.shadow_views (one per compact light, one per sample group of a wide
 light). Every visible mesh casts (baked or not), from its evaluated world-space triangles. Each
-map is a layer of an R32F array texture holding the depth from the view's near plane in world
-units (cleared to FAR), drawn with a depth buffer from the view's direction and fitted to the
+map is a tile of an R32F atlas (shadow_atlas.py) holding the depth from the view's near plane in
+world units (cleared to FAR), drawn with a depth buffer from the view's direction and fitted to the
 bounding box of the casters: the compact lights' maps at RESOLUTION, the wide lights' at
 WIDE_RESOLUTION. The caster batch is rebuilt only when the geometry signature changes (objects,
 transforms, element counts, and a generation counter the depsgraph handler bumps on geometry
@@ -16,6 +16,7 @@ import numpy as np
 
 from ...core.shadow_views import shadow_views, wide_view_budget
 from .. import mesh_read
+from . import shadow_atlas
 
 RESOLUTION = 2048  # the compact lights' maps
 WIDE_RESOLUTION = 1024  # a wide light's maps (core.shadow_views): softer, and many of them
@@ -41,43 +42,23 @@ void main()
 _depth_shader = []
 _generation = [0]
 _states = {}  # scene pointer -> ShadowState
-_empty = []  # the 1-texel array bound for an empty set of maps
-
-
-class LayeredMaps:
-    """`layers` maps of one resolution: an R32F array texture, one depth buffer they share (the
-    maps are drawn one after the other) and a framebuffer per layer; per layer the key it was
-    drawn for."""
-
-    __slots__ = ("resolution", "layers", "color", "depth", "framebuffers", "keys")
-
-    def __init__(self, resolution, layers):
-        self.resolution = resolution
-        self.layers = layers
-        self.color = gpu.types.GPUTexture((resolution, resolution), layers=layers, format="R32F")
-        self.depth = gpu.types.GPUTexture((resolution, resolution), format="DEPTH_COMPONENT32F")
-        self.framebuffers = [
-            gpu.types.GPUFrameBuffer(depth_slot=self.depth, color_slots=({"texture": self.color, "layer": i},))
-            for i in range(layers)
-        ]
-        self.keys = [None] * layers
 
 
 class ViewMap:
-    """Where one view's map is: world -> (texel x, texel y, depth) rows, texel size, resolution,
-    its layer and whether it is in the wide views' maps."""
+    """Where one view's map is: world -> (texel x, texel y, depth) rows within its tile, texel
+    size, resolution, its tile's first texel in the atlas and whether it is a wide light's."""
 
-    __slots__ = ("rows", "texel", "resolution", "layer", "wide")
+    __slots__ = ("rows", "texel", "resolution", "origin", "wide")
 
-    def __init__(self, rows, texel, resolution, layer, wide):
-        self.rows, self.texel, self.resolution, self.layer, self.wide = rows, texel, resolution, layer, wide
+    def __init__(self, rows, texel, resolution, origin, wide):
+        self.rows, self.texel, self.resolution, self.origin, self.wide = rows, texel, resolution, origin, wide
 
 
 class ShadowSet:
     """The maps of a frame: the lights' views (core.shadow_views.ShadowView), one ViewMap per view
-    (same order) and the two array textures (the compact lights' at RESOLUTION, the wide lights'
-    views' at WIDE_RESOLUTION; a 1-texel array stands in for an empty one, as a sampler is bound
-    even when it is not read)."""
+    (same order) and the two atlas textures (the compact lights' tiles at RESOLUTION, the wide
+    lights' views' at WIDE_RESOLUTION; a 1-texel texture stands in for an empty one, as a sampler
+    is bound even when it is not read)."""
 
     __slots__ = ("views", "maps", "sharp", "wide")
 
@@ -86,14 +67,14 @@ class ShadowSet:
 
 
 class ShadowState:
-    __slots__ = ("geometry_key", "batch", "box", "triangles", "arrays")
+    __slots__ = ("geometry_key", "batch", "box", "triangles", "atlases")
 
     def __init__(self):
         self.geometry_key = None
         self.batch = None
         self.box = None
         self.triangles = 0
-        self.arrays = {}  # wide flag -> LayeredMaps
+        self.atlases = {}  # wide flag -> shadow_atlas.Atlas
 
 
 def geometry_changed():
@@ -104,7 +85,7 @@ def geometry_changed():
 def clear_shadows():
     _states.clear()
     _depth_shader.clear()
-    _empty.clear()
+    shadow_atlas.clear()
 
 
 def _shader():
@@ -250,21 +231,15 @@ def scene_view_layer(scene):
     return bpy.context.view_layer if scene == bpy.context.scene else scene.view_layers[0]
 
 
-def _empty_array():
-    if not _empty:
-        _empty.append(gpu.types.GPUTexture((1, 1), layers=1, format="R32F"))
-    return _empty[0]
-
-
-def _arrays(state, wide, layers, resolution):
-    """The state's LayeredMaps for `wide`, reallocated when its layer count or resolution changed."""
-    maps = state.arrays.get(wide)
-    if layers == 0:
-        state.arrays.pop(wide, None)
+def _atlas(state, wide, tiles, resolution):
+    """The state's atlas for `wide`, made again when its tile count or resolution changed."""
+    atlas = state.atlases.get(wide)
+    if tiles == 0:
+        state.atlases.pop(wide, None)
         return None
-    if maps is None or maps.layers != layers or maps.resolution != resolution:
-        maps = state.arrays[wide] = LayeredMaps(resolution, layers)
-    return maps
+    if atlas is None or atlas.tiles != tiles or atlas.resolution != resolution:
+        atlas = state.atlases[wide] = shadow_atlas.Atlas(resolution, tiles)
+    return atlas
 
 
 def update_shadow_maps(scene, lights, depsgraph=None, view_layer=None, resolution=None, wide_resolution=None):
@@ -286,23 +261,25 @@ def update_shadow_maps(scene, lights, depsgraph=None, view_layer=None, resolutio
         state.triangles = len(triangles)
         state.geometry_key = key
     views = shadow_views(lights, max_wide_views=wide_view_budget(state.triangles))
-    arrays = {}
+    atlases = {}
     for wide in (False, True):
-        arrays[wide] = _arrays(state, wide, sum(1 for v in views if v.wide == wide), sizes[wide])
-    placed, next_layer = [], {False: 0, True: 0}
+        atlases[wide] = _atlas(state, wide, sum(1 for v in views if v.wide == wide), sizes[wide])
+    placed, next_tile = [], {False: 0, True: 0}
     for view in views:
         wide = bool(view.wide)
-        maps, layer = arrays[wide], next_layer[wide]
-        next_layer[wide] += 1
-        size = maps.resolution
+        atlas, tile = atlases[wide], next_tile[wide]
+        next_tile[wide] += 1
+        size = atlas.resolution
         if state.box is None:
             rows, texel, clip = np.array([[0, 0, 0, -1.0], [0, 0, 0, -1.0], [0, 0, 0, 0.0]]), 1.0, None
         else:
             rows, clip, texel = light_rows(view.direction, state.box, size)
         map_key = (key, np.asarray(view.direction, dtype=np.float64).tobytes())
-        if clip is not None and maps.keys[layer] != map_key:
-            _render(maps.framebuffers[layer], state.batch, clip, rows, size)
-        maps.keys[layer] = map_key
-        placed.append(ViewMap(rows, texel, size, layer, wide))
-    textures = {wide: (arrays[wide].color if arrays[wide] is not None else _empty_array()) for wide in (False, True)}
+        if clip is not None and atlas.keys[tile] != map_key:
+            target = shadow_atlas.scratch(size)
+            _render(target.framebuffer, state.batch, clip, rows, size)
+            shadow_atlas.copy_into(atlas, tile, target.color)
+        atlas.keys[tile] = map_key
+        placed.append(ViewMap(rows, texel, size, atlas.origin(tile), wide))
+    textures = {w: (a.color if a is not None else shadow_atlas.empty_texture()) for w, a in atlases.items()}
     return ShadowSet(views, placed, textures[False], textures[True])

@@ -70,8 +70,8 @@ class PRT_PG_world(bpy.types.PropertyGroup):
     )
     auto_threshold: bpy.props.BoolProperty(
         name="Auto Threshold",
-        description="Choose the light threshold from the image: the larger of 8 times its mean luminance and "
-        "the level that keeps the bright texels within 1 % of the sphere",
+        description="Choose the light threshold from the image: the larger of 3 times its mean luminance and "
+        "the level that keeps the bright texels within 10 % of the sphere",
         default=True,
     )
     light_threshold: bpy.props.FloatProperty(
