@@ -255,7 +255,7 @@ def step():
         with bpy.context.temp_override(**window_context()):
             result["project"] = list(bpy.ops.prt.project_world())
         bpy.context.scene.prt.show_display = True
-        bpy.context.scene.prt_display.show_light_directions = True  # forest.exr: 4 split lights
+        bpy.context.scene.prt_display.show_light_directions = True  # forest.exr: 3 split lights
         markers, drawn = mod("blender.display.light_markers"), state.setdefault("markers", [])
         draw_markers = markers.draw_markers  # count what the viewport's handler draws, per phase
         markers.draw_markers = lambda *a, **k: drawn.append((state["phase"], draw_markers(*a, **k))) or drawn[-1][1]
