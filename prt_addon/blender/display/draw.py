@@ -19,7 +19,7 @@ from .albedo import _slot_tints, display_settings, material_colour
 from .gpu_cache import ObjectState, _object_cache, _prune, clear_caches, get_mesh_entry
 from .lighting import bounce_light_extra, exposure_scale, light_in_local_frame, world_light, world_lights
 from .shader import get_shader, light_ubo_bytes
-from .shader_suns import MAX_SUNS, suns_ubo_bytes
+from .shader_suns import MAX_SUNS, suns_ubo_bytes, view_layout
 from .shadows import update_shadow_maps
 
 
@@ -65,6 +65,7 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
     suns = all_lights[:MAX_SUNS]
     lights_tag = tuple((tuple(x.direction), tuple(x.power), x.angle) for x in all_lights)
     maps = update_shadow_maps(scene, suns, depsgraph) if suns else None
+    layout = view_layout(maps) if maps is not None else None
     drawn = 0
     for obj in objects:
         info, _problem = storage.usable_bake(obj.data, check_topology=False)
@@ -73,7 +74,7 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
         entry = get_mesh_entry(obj.data, info, albedo_mode, albedo_attr, obj, depsgraph)
         if not entry.batches:
             continue
-        shader = get_shader(info.count, len(suns), info.channels)
+        shader = get_shader(info.count, layout, info.channels)
         state = _object_cache.setdefault(obj.as_pointer(), ObjectState())
         mw = np.array(obj.matrix_world, dtype=np.float64)
         size_key = (info.count, info.channels)

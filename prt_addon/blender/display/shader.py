@@ -71,12 +71,14 @@ def transfer_vec4s(count, bounce_channels=0):
     return count * (1 + bounce_channels)
 
 
-def get_shader(count, lights=0, bounce_channels=0):
-    """Compiled shader for `count` transfer vec4s per part, with the suns when `lights` and a bounced transfer
+def get_shader(count, lights=None, bounce_channels=0):
+    """Compiled shader for `count` transfer vec4s per part, with the suns' shadow views when `lights`
+    is a (compact views, wide views) pair (shader_suns.view_layout; None or (0, 0): no suns) and a bounced transfer
     of `bounce_channels` channels (0: none) (cached). Raises RuntimeError on failure."""
     total = transfer_vec4s(count, bounce_channels)
     mode = shader_mode(total)
-    key = (mode, count, bool(lights), bounce_channels)
+    lights = tuple(lights) if lights and any(lights) else None
+    key = (mode, count, lights, bounce_channels)
     shader = _shaders.get(key)
     if shader is not None:
         return shader
@@ -126,7 +128,7 @@ def get_shader(count, lights=0, bounce_channels=0):
     if lights:
         from .shader_suns import add_suns
 
-        vertex, fragment = add_suns(info, _VERTEX_COMMON % body, 2 + total if mode == "ATTR" else 2)
+        vertex, fragment = add_suns(info, lights, _VERTEX_COMMON % body, 2 + total if mode == "ATTR" else 2)
     else:
         iface = gpu.types.GPUStageInterfaceInfo("prt_iface")
         iface.smooth("VEC3", "radiance")
