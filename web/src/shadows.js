@@ -23,6 +23,12 @@ export const MAX_SAMPLES = 16; // a light's samples in the cosine term (display/
 export const MIN_COSINE = 0.05; // the slope bias's cosine when the view's direction is at or below the horizon
 const PAD = 0.01;
 
+const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+const unit = (a) => {
+  const n = Math.hypot(a[0], a[1], a[2]);
+  return [a[0] / n, a[1] / n, a[2] / n];
+};
+
 /** The shadow views of the file's lights (glTF frame, before any turn): per view {light, direction,
  * angle, samples (rows of [x, y, z]), weights, wide}. A light's `views` (docs/export.md) index its
  * samples, whose weights (the first MAX_SAMPLES, renormalised) the views share; a light without
@@ -42,7 +48,7 @@ export function fileViews(lights) {
         light: l,
         direction: view.direction,
         angle: view.angle,
-        samples: indices ? indices.map((j) => light.samples[j]) : [light.direction],
+        samples: indices ? indices.map((j) => light.samples[j]) : [unit(light.direction)],
         weights: indices ? indices.map((j) => light.weights[j] / total) : [1.0],
         wide: Boolean(view.wide),
       });
@@ -51,12 +57,7 @@ export function fileViews(lights) {
   return out;
 }
 
-const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
-const unit = (a) => {
-  const n = Math.hypot(a[0], a[1], a[2]);
-  return [a[0] / n, a[1] / n, a[2] / n];
-};
 
 /** Unit t, b completing the unit light direction s to an orthonormal basis (shadows._frame). */
 function frame(direction) {
