@@ -148,6 +148,10 @@ def test_export_round_trip(baked, bpy_module, tmp_path):
     # A light without samples (its disc): null samples, the shadow filter's disc is its angle.
     assert world["lights"][0]["samples"] is None and world["lights"][0]["weights"] is None
     assert world["lights"][0]["shadow_angle"] == 0.05
+    # Its one shadow view (docs/export.md, "Shadow views"): a compact map along it, no sample indices.
+    (view,) = world["lights"][0]["views"]
+    assert np.allclose(view["direction"], [0.0, 0.8, -0.6]) and view["angle"] == 0.05
+    assert view["samples"] is None and view["wide"] is False
     nodes = {n["name"]: n for n in document["nodes"]}
     for name, order, domain in (("sphere", 3, "POINT"), ("grid", 3, "POINT"), ("cube", 4, "CORNER")):
         obj = objs[name]

@@ -15,9 +15,10 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SH_ROTATION_JS = os.path.join(ROOT, "web", "src", "sh_rotation.js")
 
 # Tolerances of the viewer's linear image against api.render_view, over the pixels both draw, as
-# fractions of the mean radiance there. Measured on the demo scene (order 8, 3 split lights with
-# shadow maps, 480x360): mean 0.03-0.04 %, 99th percentile 0.3-0.4 %; what differs are pixels on
-# silhouettes and shadow edges, where two rasterisers (llvmpipe, SwiftShader) round differently.
+# fractions of the mean radiance there. Measured on the demo scene (order 8, 4 split lights, two
+# of them wide: 34 shadow maps, 480x360): mean 0.03-0.04 %, 99th percentile 0.3-0.4 %; what
+# differs are pixels on silhouettes and shadow edges, where two rasterisers (llvmpipe,
+# SwiftShader) round differently.
 MEAN_TOLERANCE = 0.003
 P99_TOLERANCE = 0.02
 COVERAGE_TOLERANCE = 0.001  # fraction of pixels drawn by one and not the other
@@ -243,6 +244,7 @@ def test_viewer_matches_render_view(demo_scene, browser_tools, tmp_path, lights,
     a material's colour and a mirrored node."""
     from prt_addon import api
     from prt_addon.blender.display import lighting
+    from prt_addon.blender.export import glb as glb_module
 
     import bpy
 
@@ -277,7 +279,11 @@ def test_viewer_matches_render_view(demo_scene, browser_tools, tmp_path, lights,
         _tool("build_web.sh", "--out", page, "--glb", glb)
         job = dict(job, html=page, glb=None, drag=[150, 0], screenshots=True)
     summary = _run_viewer(browser_tools, dict(job, out=str(tmp_path / "viewer")), tmp_path)
-    assert summary["info"]["lights"] == count, summary["info"]  # forest: 3 lights, with samples
+    assert summary["info"]["lights"] == count, summary["info"]  # forest: 4 lights, with samples
+    # One map per exported shadow view (forest: two wide lights of 16 views, two compact ones).
+    exported = glb_module.read(glb)[0]["scenes"][0]["extras"]["PRT_lighting"]["lights"]
+    want = [(index, view["wide"]) for index, light in enumerate(exported) for view in light["views"]]
+    assert [(v["light"], v["wide"]) for v in summary["info"]["views"]] == want
     assert summary["info"]["camera"] and summary["info"]["orders"] == [8, 8], summary["info"]
     results = [_compare(ref, image["file"], width, height) for ref, image in zip(references, summary["images"])]
     with capsys.disabled():

@@ -3,12 +3,22 @@
 // The same shading as Blender's display (prt_addon/blender/display/shader.py, shader_suns.py):
 // the transfer comes from an RGBA32F texture read with texelFetch at gl_VertexID (so any order
 // fits, whatever the vertex-attribute limit), the light is a uniform array of 3 * count vec4s
-// (light[ch * count + k] = L_{4k..4k+3} of channel ch, in the node's local frame). Each split
-// light adds albedo * P/pi * max(0, n.s) * V per pixel, V from its shadow map (shadows.js: PCSS
-// over Vogel-disc taps, the same filter as Blender's). Output is linear radiance, or with
-// `display` set, radiance * 2^exposure through the sRGB curve (Blender's "Standard" view).
+// (light[ch * count + k] = L_{4k..4k+3} of channel ch, in the node's local frame). The split
+// lights add albedo * sum_v P_v/pi * C_v * V_v per pixel over their shadow views (shadows.js):
+// C_v = sum_j w_j max(0, n.s_j) over the view's samples, V_v PCSS on the view's map over
+// Vogel-disc taps, the same filter as Blender's (fewer taps for a wide light's views). Output is
+// linear radiance, or with `display` set, radiance * 2^exposure through the sRGB curve
+// (Blender's "Standard" view).
 import * as THREE from 'three';
-import { MAX_SUNS, PCF_TAPS, BLOCKER_TAPS, MAX_RADIUS, MAX_SLOPE, MAX_SAMPLES, MIN_COSINE } from './shadows.js';
+import {
+  BLOCKER_TAPS,
+  MAX_RADIUS,
+  MAX_SLOPE,
+  MIN_COSINE,
+  PCF_TAPS,
+  WIDE_BLOCKER_TAPS,
+  WIDE_PCF_TAPS,
+} from './shadows.js';
 
 const MAX_TEXTURE_WIDTH = 4096;
 
@@ -54,7 +64,7 @@ const bounceLines = (count, channels) => {
               dot(${fetch(block[2])}, bounceLight[${2 * count} + k]));`;
 };
 
-const VERTEX = (count, suns, channels) => `
+const VERTEX = (count, views, channels) => `
 uniform sampler2D transferTx;
 uniform int perRow;
 uniform vec4 light[${3 * count}];
@@ -62,7 +72,7 @@ ${channels ? `uniform vec4 bounceLight[${3 * count}];` : ''}
 uniform vec3 albedo;
 uniform float scale;
 varying vec3 radiance;
-${suns ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
+${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 void main() {
   vec3 r = vec3(0.0);
   int col = (gl_VertexID % perRow) * ${count * (1 + channels)};
@@ -74,25 +84,31 @@ ${bounceLines(count, channels)}
   }
   radiance = max(r, vec3(0.0)) * albedo * scale;
   vec4 wp = modelMatrix * vec4(position, 1.0);
-${suns ? '  surfaceAlbedo = albedo * scale;\n  worldPos = wp.xyz;\n  localNrm = normal;' : ''}
+${views ? '  surfaceAlbedo = albedo * scale;\n  worldPos = wp.xyz;\n  localNrm = normal;' : ''}
   gl_Position = projectionMatrix * viewMatrix * wp;
 }
 `;
 
-// Blender's sun_visibility (shader_suns.py) on a map that stores depth > 0, and 0 where empty.
-const SUN_FUNCTIONS = `
-uniform vec4 sunRows[${3 * MAX_SUNS}];
-uniform vec4 sunDir[${MAX_SUNS}];
-uniform vec4 sunPower[${MAX_SUNS}];
-uniform vec4 sunParams[${MAX_SUNS}];
-uniform vec4 sunSamples[${MAX_SUNS * MAX_SAMPLES}];
+// Blender's view_cosine and view_visibility (shader_suns.py) for `views` views holding `samples`
+// samples in all, on maps that store depth > 0, and 0 where empty. Per view v: sunRows[3v..3v+2]
+// world -> (texel x, texel y, depth), sunDir its direction, sunPower P/pi of its light, sunParams
+// (texel size, tan filter angle, resolution), sunRange (first sample, sample count, layer, wide).
+const SUN_FUNCTIONS = (views, samples) => `
+uniform vec4 sunRows[${3 * views}];
+uniform vec4 sunDir[${views}];
+uniform vec4 sunPower[${views}];
+uniform vec4 sunParams[${views}];
+uniform vec4 sunRange[${views}];
+uniform vec4 sunSamples[${samples}];
+uniform sampler2DArray sharpMaps;
+uniform sampler2DArray wideMaps;
 uniform mat3 nrmMatrix;
 uniform bool useShadows;
 
-float sunDepth(sampler2D map, vec2 xy, float res) {
+float sunDepth(sampler2DArray maps, vec2 xy, float layer, float res) {
   ivec2 t = ivec2(floor(xy));
   if (t.x < 0 || t.y < 0 || t.x >= int(res) || t.y >= int(res)) return 1.0e30;
-  float d = texelFetch(map, t, 0).r;
+  float d = texelFetch(maps, ivec3(t, int(layer)), 0).r;
   return d > 0.0 ? d : 1.0e30;
 }
 
@@ -102,29 +118,31 @@ vec2 vogel(int i, int n) {
   return r * vec2(cos(a), sin(a));
 }
 
-float sunCosine(vec3 n, int l) {
+float viewCosine(vec3 n, int v) {
+  int first = int(sunRange[v].x);
+  int count = int(sunRange[v].y);
   float sum = 0.0;
-  for (int j = 0; j < ${MAX_SAMPLES}; j++) {
-    vec4 s = sunSamples[${MAX_SAMPLES} * l + j];
+  for (int j = first; j < first + count; j++) {
+    vec4 s = sunSamples[j];
     sum += s.w * max(dot(n, s.xyz), 0.0);
   }
   return sum;
 }
 
-float sunVisibility(sampler2D map, int l, float c) {
-  if (!useShadows) return 1.0;
+float viewVisibility(sampler2DArray maps, int v, float c, int blockerTaps, int pcfTaps) {
   vec4 p = vec4(worldPos, 1.0);
-  vec3 q = vec3(dot(sunRows[3 * l], p), dot(sunRows[3 * l + 1], p), dot(sunRows[3 * l + 2], p));
-  float texel = sunParams[l].x;
-  float tanA = sunParams[l].y;
-  float res = sunParams[l].z;
+  vec3 q = vec3(dot(sunRows[3 * v], p), dot(sunRows[3 * v + 1], p), dot(sunRows[3 * v + 2], p));
+  float texel = sunParams[v].x;
+  float tanA = sunParams[v].y;
+  float res = sunParams[v].z;
+  float layer = sunRange[v].z;
   float slope = min(sqrt(max(1.0 - c * c, 0.0)) / c, ${MAX_SLOPE.toFixed(1)});
   float search = clamp(q.z * tanA / texel, 1.0, ${MAX_RADIUS.toFixed(1)});
   float limit = q.z - texel * (1.0 + (search + 1.0) * slope);
   float sum = 0.0;
   float found = 0.0;
-  for (int i = 0; i < ${BLOCKER_TAPS}; i++) {
-    float d = sunDepth(map, q.xy + search * vogel(i, ${BLOCKER_TAPS}), res);
+  for (int i = 0; i < blockerTaps; i++) {
+    float d = sunDepth(maps, q.xy + search * vogel(i, blockerTaps), layer, res);
     if (d < limit) {
       sum += d;
       found += 1.0;
@@ -134,46 +152,48 @@ float sunVisibility(sampler2D map, int l, float c) {
   float radius = clamp((q.z - sum / found) * tanA / texel, 0.5, ${MAX_RADIUS.toFixed(1)});
   limit = q.z - texel * (1.0 + (radius + 1.0) * slope);
   float lit = 0.0;
-  for (int i = 0; i < ${PCF_TAPS}; i++) {
-    lit += step(limit, sunDepth(map, q.xy + radius * vogel(i, ${PCF_TAPS}), res));
+  for (int i = 0; i < pcfTaps; i++) {
+    lit += step(limit, sunDepth(maps, q.xy + radius * vogel(i, pcfTaps), layer, res));
   }
-  return lit / ${PCF_TAPS.toFixed(1)};
+  return lit / float(pcfTaps);
 }
 `;
 
-const FRAGMENT = (suns) => `
+const SUN_LOOP = (views) => `  vec3 n = normalize(nrmMatrix * localNrm);
+  vec3 sun = vec3(0.0);
+  for (int v = 0; v < ${views}; v++) {
+    float c = viewCosine(n, v);
+    if (c > 0.0) {
+      float biasCos = max(dot(n, sunDir[v].xyz), ${MIN_COSINE.toFixed(2)});
+      float vis = !useShadows ? 1.0
+        : sunRange[v].w > 0.5 ? viewVisibility(wideMaps, v, biasCos, ${WIDE_BLOCKER_TAPS}, ${WIDE_PCF_TAPS})
+        : viewVisibility(sharpMaps, v, biasCos, ${BLOCKER_TAPS}, ${PCF_TAPS});
+      sun += sunPower[v].rgb * (c * vis);
+    }
+  }
+  color += surfaceAlbedo * sun;`;
+
+const FRAGMENT = (views, samples) => `
 uniform bool display;
 uniform float exposureScale;
 varying vec3 radiance;
-${suns ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
-${Array.from({ length: suns }, (_, l) => `uniform sampler2D shadow${l};`).join('\n')}
-${suns ? SUN_FUNCTIONS : ''}
+${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
+${views ? SUN_FUNCTIONS(views, samples) : ''}
 vec3 srgb(vec3 c) {
   c = clamp(c, 0.0, 1.0);
   return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
 }
 void main() {
   vec3 color = radiance;
-${
-  suns
-    ? `  vec3 n = normalize(nrmMatrix * localNrm);
-  vec3 sun = vec3(0.0);
-  float c;
-${Array.from(
-  { length: suns },
-  (_, l) => `  c = sunCosine(n, ${l});
-  if (c > 0.0) sun += sunPower[${l}].rgb * (c * sunVisibility(shadow${l}, ${l}, max(dot(n, sunDir[${l}].xyz), ${MIN_COSINE.toFixed(2)})));`,
-).join('\n')}
-  color += surfaceAlbedo * sun;`
-    : ''
-}
+${views ? SUN_LOOP(views) : ''}
   gl_FragColor = display ? vec4(srgb(color * exposureScale), 1.0) : vec4(color, 1.0);
 }
 `;
 
-/** A ShaderMaterial for `count` transfer vec4s (per block), `suns` lights and a bounced transfer
- * of `channels` channels (0: none) (shared uniforms passed in). */
-export function prtMaterial({ count, suns, texture, perRow, albedo, shared, channels = 0 }) {
+/** A ShaderMaterial for `count` transfer vec4s (per block), `views` shadow views holding `samples`
+ * samples in all (0: no split lights) and a bounced transfer of `channels` channels (0: none)
+ * (shared uniforms passed in). */
+export function prtMaterial({ count, views = 0, samples = 0, texture, perRow, albedo, shared, channels = 0 }) {
   const vec4s = () => ({ value: Array.from({ length: 3 * count }, () => new THREE.Vector4()) });
   const uniforms = {
     transferTx: { value: texture },
@@ -186,21 +206,16 @@ export function prtMaterial({ count, suns, texture, perRow, albedo, shared, chan
     display: shared.display,
     exposureScale: shared.exposureScale,
   };
-  if (suns) {
-    Object.assign(uniforms, {
-      sunRows: shared.sunRows,
-      sunDir: shared.sunDir,
-      sunPower: shared.sunPower,
-      sunParams: shared.sunParams,
-      sunSamples: shared.sunSamples,
-      useShadows: shared.useShadows,
-    });
-    for (let l = 0; l < suns; l++) uniforms[`shadow${l}`] = shared.shadowMaps[l];
+  if (views) {
+    for (const name of ['sunRows', 'sunDir', 'sunPower', 'sunParams', 'sunRange', 'sunSamples']) {
+      uniforms[name] = shared[name];
+    }
+    Object.assign(uniforms, { sharpMaps: shared.sharpMaps, wideMaps: shared.wideMaps, useShadows: shared.useShadows });
   }
   return new THREE.ShaderMaterial({
     uniforms,
-    vertexShader: VERTEX(count, suns, channels),
-    fragmentShader: FRAGMENT(suns),
+    vertexShader: VERTEX(count, views, channels),
+    fragmentShader: FRAGMENT(views, samples),
     side: THREE.DoubleSide,
   });
 }

@@ -3,12 +3,13 @@
 // Reads the format of docs/export.md: scene extras PRT_lighting (world SH in glTF's frame, split
 // lights), mesh extras PRT_lighting (order, the _PRT_Tk attribute names). setTurn(R) turns the
 // lighting by the 3x3 rotation R (glTF world frame): the SH by rotationMatrix(R_node^-1 R), the
-// lights' directions by R; the shadow maps are drawn again before the next frame (prepare).
+// lights' shadow views (directions and samples) by R; their maps are drawn again before the next
+// frame (prepare).
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
 import { lightInLocalFrame, multiply3 } from './sh_rotation.js';
 import { prtMaterial, setLight, transferTexture } from './prt_material.js';
-import { MAX_SAMPLES, MAX_SUNS, ShadowMaps } from './shadows.js';
+import { MAX_SUNS, ShadowMaps, fileViews } from './shadows.js';
 
 /** The 3-vector d turned by the row-major 3x3 r. */
 function turned(r, d) {
@@ -33,6 +34,19 @@ function linearPart(matrix) {
   return [e[0], e[4], e[8], e[1], e[5], e[9], e[2], e[6], e[10]];
 }
 
+/** The shared uniforms of `views` shadow views holding `samples` samples (prt_material.js). */
+function viewUniforms(views, samples) {
+  const vec4s = (length) => ({ value: Array.from({ length: Math.max(1, length) }, () => new THREE.Vector4()) });
+  return {
+    sunRows: vec4s(3 * views),
+    sunDir: vec4s(views),
+    sunPower: vec4s(views),
+    sunParams: vec4s(views),
+    sunRange: vec4s(views),
+    sunSamples: vec4s(samples),
+  };
+}
+
 export class PRTScene {
   constructor(gltf, renderer) {
     this.gltf = gltf;
@@ -46,6 +60,9 @@ export class PRTScene {
     }
     this.lighting = lighting;
     this.lights = (lighting.lights || []).slice(0, MAX_SUNS);
+    this.views = fileViews(this.lights);
+    const samples = this.views.reduce((n, view) => n + view.samples.length, 0);
+    this.checkUniforms(renderer, this.views.length, samples);
     // What a bounced transfer sees: the sky plus the split lights' SH (the exporter's lights_coefficients).
     const extra = lighting.lights_coefficients || [];
     this.bounceCoefficients = lighting.coefficients.map((row, i) => row.map((v, c) => v + (extra[i] ? extra[i][c] : 0)));
@@ -54,12 +71,9 @@ export class PRTScene {
       display: { value: true },
       exposureScale: { value: 1.0 },
       useShadows: { value: true },
-      sunRows: { value: Array.from({ length: 3 * MAX_SUNS }, () => new THREE.Vector4()) },
-      sunDir: { value: Array.from({ length: MAX_SUNS }, () => new THREE.Vector4()) },
-      sunPower: { value: Array.from({ length: MAX_SUNS }, () => new THREE.Vector4()) },
-      sunParams: { value: Array.from({ length: MAX_SUNS }, () => new THREE.Vector4()) },
-      sunSamples: { value: Array.from({ length: MAX_SUNS * MAX_SAMPLES }, () => new THREE.Vector4()) },
-      shadowMaps: Array.from({ length: MAX_SUNS }, () => ({ value: null })),
+      ...viewUniforms(this.views.length, samples),
+      sharpMaps: { value: null },
+      wideMaps: { value: null },
     };
     this.baked = [];
     this.scene.updateMatrixWorld(true);
@@ -86,14 +100,15 @@ export class PRTScene {
       const { texture, perRow } = textures.get(object.geometry);
       const count = meta.attributes.length;
       const channels = meta.bounce_channels || 0;
-      const suns = this.lights.length;
-      const material = prtMaterial({ count, suns, texture, perRow, albedo, shared: this.shared, channels });
+      const views = this.views.length;
+      const shared = this.shared;
+      const material = prtMaterial({ count, views, samples, texture, perRow, albedo, shared, channels });
       material.uniforms.nrmMatrix.value.getNormalMatrix(object.matrixWorld);
       object.material = material;
       this.baked.push({ object, material, count, order: meta.order, channels });
     });
     if (!this.baked.length) throw new Error('this .glb holds no baked mesh (no _PRT_T attributes)');
-    this.shadows = this.lights.length ? new ShadowMaps(renderer, this.scene) : null;
+    this.shadows = this.views.length ? new ShadowMaps(renderer, this.scene, this.views) : null;
     this.camera = gltf.cameras && gltf.cameras.length ? gltf.cameras[0] : null;
     this.setTurn(IDENTITY);
   }
@@ -120,35 +135,38 @@ export class PRTScene {
     this.setTurn(multiply3(delta, this.turn));
   }
 
-  lightDirections() {
-    return this.lights.map(({ direction }) => turned(this.turn, direction));
+  /** Refuses, with a message, a file whose views need more fragment uniforms than the GPU has. */
+  checkUniforms(renderer, views, samples) {
+    const needed = 7 * views + samples + 16; // the views' vec4s, and a margin for the rest
+    const gl = renderer.getContext();
+    const limit = gl.getParameter(gl.MAX_FRAGMENT_UNIFORM_VECTORS);
+    if (views && needed > limit) {
+      throw new Error(`the lights' ${views} shadow views need ${needed} fragment uniforms, this GPU has ${limit}`);
+    }
   }
 
   updateLights() {
-    const directions = this.lightDirections();
-    const maps = this.shadows.update(directions.map((direction) => ({ direction })));
     const s = this.shared;
-    directions.forEach((d, l) => {
+    const directions = this.views.map(({ direction }) => turned(this.turn, direction));
+    const maps = this.shadows.update(directions);
+    let first = 0;
+    this.views.forEach((view, v) => {
+      const d = directions[v];
       const n = Math.hypot(d[0], d[1], d[2]);
-      const light = this.lights[l];
-      s.sunDir.value[l].set(d[0] / n, d[1] / n, d[2] / n, 0);
-      s.sunPower.value[l].set(...light.power.map((p) => p / Math.PI), 0);
-      // The filter's disc: the light's shadow angle when it has samples (core.light_samples).
-      const penumbra = Math.min(light.samples ? Math.min(light.shadow_angle, light.angle) : light.angle, 1.5);
-      s.sunParams.value[l].set(maps[l].texel, Math.tan(penumbra), this.shadows.resolution, 0);
-      // The cosine term sum_j w_j max(0, n . s_j); a light without samples is its direction.
-      const samples = light.samples || [light.direction];
-      const weights = light.weights || [1.0];
-      const count = Math.min(samples.length, MAX_SAMPLES);
-      const total = weights.slice(0, count).reduce((a, b) => a + b, 0);
-      for (let j = 0; j < MAX_SAMPLES; j++) {
-        const v = s.sunSamples.value[MAX_SAMPLES * l + j];
-        if (j < count) v.set(...turned(this.turn, samples[j]), weights[j] / total);
-        else v.set(0, 0, 0, 0);
-      }
-      for (let j = 0; j < 3; j++) s.sunRows.value[3 * l + j].set(...maps[l].rows[j]);
-      s.shadowMaps[l].value = maps[l].texture;
+      s.sunDir.value[v].set(d[0] / n, d[1] / n, d[2] / n, 0);
+      s.sunPower.value[v].set(...this.lights[view.light].power.map((p) => p / Math.PI), 0);
+      const { rows, texel, resolution, layer, wide } = maps[v];
+      s.sunParams.value[v].set(texel, Math.tan(Math.min(view.angle, 1.5)), resolution, 0);
+      s.sunRange.value[v].set(first, view.samples.length, layer, wide ? 1 : 0);
+      // The view's part of the cosine term: sum_j w_j max(0, n . s_j) over its samples.
+      view.samples.forEach((sample, j) => {
+        s.sunSamples.value[first + j].set(...turned(this.turn, sample), view.weights[j]);
+      });
+      first += view.samples.length;
+      for (let j = 0; j < 3; j++) s.sunRows.value[3 * v + j].set(...rows[j]);
     });
+    s.sharpMaps.value = this.shadows.sharp ? this.shadows.sharp.texture : null;
+    s.wideMaps.value = this.shadows.wide ? this.shadows.wide.texture : null;
   }
 
   info() {
@@ -157,6 +175,7 @@ export class PRTScene {
       orders: this.baked.map((b) => b.order),
       lightingOrder: this.lighting.order,
       lights: this.lights.length,
+      views: this.views.map(({ light, wide, samples }) => ({ light, wide, samples: samples.length })),
       camera: Boolean(this.camera),
     };
   }

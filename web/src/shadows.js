@@ -1,26 +1,63 @@
-// Shadow maps of the split lights, as Blender's display draws them (prt_addon/blender/display/shadows.py).
+// The split lights' shadow views and their maps, as Blender's display draws them (display/shadows.py).
 //
-// One orthographic map per light, 2048^2 R32F, holding the depth from the light's near plane in
-// world units over every mesh of the scene, fitted to the bounding box of all vertices. Texels no
-// caster covers hold 0 (read as "no blocker"). prt_material.js filters it (PCSS).
+// A view (core.shadow_views, written by the export per light) is one orthographic R32F map of
+// the depth from its near plane in world units over every mesh of the scene, fitted to the
+// bounding box of all vertices: a compact light has one view holding all its samples, a wide
+// light one per group of its samples. The compact views' maps are the layers of one 2048^2
+// array target, the wide views' of one 1024^2 array target (one depth buffer each, the maps
+// drawn one after the other). Texels no caster covers hold 0 (read as "no blocker").
+// prt_material.js filters them (PCSS).
 import * as THREE from 'three';
 
 export const MAX_SUNS = 8;
-export const RESOLUTION = 2048;
+export const MAX_WIDE_VIEWS = 32; // core.shadow_views: the wide lights' maps together
+export const RESOLUTION = 2048; // the compact lights' maps
+export const WIDE_RESOLUTION = 1024; // a wide light's maps
 export const BLOCKER_TAPS = 12;
 export const PCF_TAPS = 16;
+export const WIDE_BLOCKER_TAPS = 6; // a wide light's views (display/shader_suns.py)
+export const WIDE_PCF_TAPS = 8;
 export const MAX_RADIUS = 16.0;
 export const MAX_SLOPE = 20.0;
 export const MAX_SAMPLES = 16; // a light's samples in the cosine term (display/shader_suns.py)
-export const MIN_COSINE = 0.05; // the slope bias's cosine when the mean direction is at or below the horizon
+export const MIN_COSINE = 0.05; // the slope bias's cosine when the view's direction is at or below the horizon
 const PAD = 0.01;
 
 const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
 const unit = (a) => {
   const n = Math.hypot(a[0], a[1], a[2]);
   return [a[0] / n, a[1] / n, a[2] / n];
 };
+
+/** The shadow views of the file's lights (glTF frame, before any turn): per view {light, direction,
+ * angle, samples (rows of [x, y, z]), weights, wide}. A light's `views` (docs/export.md) index its
+ * samples, whose weights (the first MAX_SAMPLES, renormalised) the views share; a light without
+ * `views` (a file from before them) is one compact view: its direction, filtered over its shadow
+ * angle, with all its samples. */
+export function fileViews(lights) {
+  const out = [];
+  lights.forEach((light, l) => {
+    const count = light.samples ? Math.min(light.samples.length, MAX_SAMPLES) : 0;
+    const total = count ? light.weights.slice(0, count).reduce((a, b) => a + b, 0) : 1;
+    const all = Array.from({ length: count }, (_, j) => j);
+    const angle = light.samples ? Math.min(light.shadow_angle ?? light.angle, light.angle) : light.angle;
+    const views = light.views || [{ direction: light.direction, angle, samples: count ? all : null, wide: false }];
+    for (const view of views) {
+      const indices = count ? view.samples || all : null;
+      out.push({
+        light: l,
+        direction: view.direction,
+        angle: view.angle,
+        samples: indices ? indices.map((j) => light.samples[j]) : [unit(light.direction)],
+        weights: indices ? indices.map((j) => light.weights[j] / total) : [1.0],
+        wide: Boolean(view.wide),
+      });
+    }
+  });
+  return out;
+}
+
+const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
 
 /** Unit t, b completing the unit light direction s to an orthonormal basis (shadows._frame). */
 function frame(direction) {
@@ -81,13 +118,28 @@ void main() {
 }
 `;
 
-/** The shadow maps of a scene: targets, the depth material, and update(lights). */
+/** One array target of `layers` maps of `resolution`^2 (R32F, nearest, one depth buffer). */
+function arrayTarget(resolution, layers) {
+  return new THREE.WebGLArrayRenderTarget(resolution, resolution, layers, {
+    type: THREE.FloatType,
+    format: THREE.RedFormat,
+    minFilter: THREE.NearestFilter,
+    magFilter: THREE.NearestFilter,
+    depthBuffer: true,
+    generateMipmaps: false,
+  });
+}
+
+/** The shadow maps of a scene's views ({wide} per view, fixed): the two array targets (null when
+ * no view needs one), each view's layer, the depth material, and update(directions). */
 export class ShadowMaps {
-  constructor(renderer, scene, resolution = RESOLUTION) {
+  constructor(renderer, scene, views) {
     this.renderer = renderer;
     this.scene = scene;
-    this.resolution = resolution;
-    this.targets = [];
+    const counts = [0, 0];
+    this.placed = views.map(({ wide }) => ({ wide, layer: counts[wide ? 1 : 0]++ }));
+    this.sharp = counts[0] ? arrayTarget(RESOLUTION, counts[0]) : null;
+    this.wide = counts[1] ? arrayTarget(WIDE_RESOLUTION, counts[1]) : null;
     this.box = new THREE.Box3().setFromObject(scene, true);
     this.material = new THREE.ShaderMaterial({
       uniforms: { clip: { value: new THREE.Matrix4() }, depthRow: { value: new THREE.Vector4() } },
@@ -98,24 +150,9 @@ export class ShadowMaps {
     this.camera = new THREE.Camera(); // (unused by the depth shader)
   }
 
-  target(l) {
-    while (this.targets.length <= l) {
-      this.targets.push(
-        new THREE.WebGLRenderTarget(this.resolution, this.resolution, {
-          type: THREE.FloatType,
-          format: THREE.RedFormat,
-          minFilter: THREE.NearestFilter,
-          magFilter: THREE.NearestFilter,
-          depthBuffer: true,
-          generateMipmaps: false,
-        }),
-      );
-    }
-    return this.targets[l];
-  }
-
-  /** Draw each light's map; returns [{texture, rows, texel}] per light. */
-  update(lights) {
+  /** Draw each view's map along its direction (same order as the views); returns per view
+   * {rows, texel, resolution, layer, wide}. */
+  update(directions) {
     const renderer = this.renderer;
     const previous = {
       target: renderer.getRenderTarget(),
@@ -129,15 +166,16 @@ export class ShadowMaps {
       this.scene.overrideMaterial = this.material;
       this.scene.background = null;
       renderer.setClearColor(0x000000, 0);
-      lights.forEach((light, l) => {
-        const { rows, clip, texel } = lightRows(light.direction, this.box, this.resolution);
+      directions.forEach((direction, v) => {
+        const { wide, layer } = this.placed[v];
+        const resolution = wide ? WIDE_RESOLUTION : RESOLUTION;
+        const { rows, clip, texel } = lightRows(direction, this.box, resolution);
         this.material.uniforms.clip.value.copy(clip);
         this.material.uniforms.depthRow.value.set(...rows[2]);
-        const target = this.target(l);
-        renderer.setRenderTarget(target);
+        renderer.setRenderTarget(wide ? this.wide : this.sharp, layer);
         renderer.clear(true, true, false);
         renderer.render(this.scene, this.camera);
-        out.push({ texture: target.texture, rows, texel });
+        out.push({ rows, texel, resolution, layer, wide });
       });
     } finally {
       this.scene.overrideMaterial = previous.override;
@@ -149,7 +187,7 @@ export class ShadowMaps {
   }
 
   dispose() {
-    this.targets.forEach((t) => t.dispose());
+    for (const target of [this.sharp, this.wide]) if (target) target.dispose();
     this.material.dispose();
   }
 }

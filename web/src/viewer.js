@@ -229,7 +229,8 @@ async function loadInto(viewer, buffer, name) {
     const info = await viewer.load(buffer);
     $('info').textContent =
       `${name}: ${info.objects.length} baked object(s), order ${Math.max(...info.orders)}, ` +
-      `${info.lights} split light(s)${info.camera ? '' : ', no camera in the file'}`;
+      `${info.lights} split light(s)${info.views.length ? ` (${info.views.length} shadow maps)` : ''}` +
+      `${info.camera ? '' : ', no camera in the file'}`;
     $('drop-hint').hidden = true;
     viewer.showTurn();
     return info;

@@ -16,6 +16,8 @@ import numpy as np
 
 from ...core.light_samples import shadow_angle
 from ...core.light_sh import lights_sh
+from ...core.lights import MAX_LIGHTS
+from ...core.shadow_views import light_samples, shadow_views
 
 from ...core import rotation as _rotation
 from .. import storage
@@ -103,6 +105,46 @@ def _plan(objects, scene):
     return plan
 
 
+def _sample_indices(light, views):
+    """Per view of `light` (core.shadow_views.ShadowView, in order) the indices of its samples in
+    light.samples, or None for a light without samples (its one view is its direction). The views
+    hold copies of the light's first samples (normalised) and weights (renormalised): each one is
+    found by sorting both sets of (direction, weight) rows, which pairs them one to one."""
+    if light.samples is None:
+        return [None] * len(views)
+    dirs, weights = light_samples(light)
+    want = np.c_[dirs, weights]
+    got = np.concatenate([np.c_[v.samples, v.weights] for v in views])
+    if got.shape != want.shape:
+        raise ExportError("the shadow views do not hold each of the light's samples once")
+    have, need = np.lexsort(got.T[::-1]), np.lexsort(want.T[::-1])
+    if not np.array_equal(got[have], want[need]):
+        raise ExportError("the shadow views' samples are not the light's")
+    index = np.empty(len(got), dtype=np.int64)
+    index[have] = need
+    return [part.tolist() for part in np.split(index, np.cumsum([len(v.weights) for v in views])[:-1])]
+
+
+def _views_extras(lights):
+    """Per light the JSON of its shadow views (core.shadow_views at the full budget of wide maps,
+    MAX_WIDE_VIEWS: the viewer runs on a GPU, the viewport may draw fewer on a heavy scene), glTF
+    frame. Only the first MAX_LIGHTS lights are drawn (the viewport's MAX_SUNS): later ones get []."""
+    views = shadow_views(lights[:MAX_LIGHTS])
+    out = [[] for _ in lights]
+    for index, light in enumerate(lights[:MAX_LIGHTS]):
+        mine = [v for v in views if v.light == index]
+        for view, samples in zip(mine, _sample_indices(light, mine)):
+            out[index].append(
+                {
+                    "direction": (BLENDER_TO_GLTF @ view.direction).tolist(),
+                    "angle": float(view.angle),
+                    "samples": samples,
+                    "wide": bool(view.wide),
+                }
+            )
+    return out
+
+
 def world_extras(scene):
     """The scene's lighting as JSON-ready data in glTF's world frame; raises ExportError."""
     coeffs = _world.current_world_coeffs(scene)
@@ -110,8 +152,9 @@ def world_extras(scene):
         raise ExportError("the scene has no PRT lighting: project the world first (PRT tab > Project World)")
     from ..display import lighting as _lighting
 
+    world_lights = list(_lighting.world_lights(scene))
     lights = []
-    for light in _lighting.world_lights(scene):
+    for light, views in zip(world_lights, _views_extras(world_lights)):
         lights.append(
             {
                 "direction": (BLENDER_TO_GLTF @ np.asarray(light.direction, dtype=np.float64)).tolist(),
@@ -121,6 +164,8 @@ def world_extras(scene):
                 "samples": None if light.samples is None else (light.samples @ BLENDER_TO_GLTF.T).tolist(),
                 "weights": None if light.weights is None else light.weights.tolist(),
                 "shadow_angle": shadow_angle(light),
+                # The shadow maps a viewer draws for it (docs/export.md, "Shadow views").
+                "views": views,
             }
         )
     n = int(round(np.sqrt(coeffs.shape[0])))
@@ -131,7 +176,7 @@ def world_extras(scene):
         "sh_convention": "REAL_ORTHONORMAL_NO_CONDON_SHORTLEY",
         "coefficients": to_gltf_frame(coeffs).tolist(),
         "lights": lights,
-        "lights_coefficients": to_gltf_frame(lights_sh(_lighting.world_lights(scene), n)).tolist(),
+        "lights_coefficients": to_gltf_frame(lights_sh(world_lights, n)).tolist(),
         "mapping_rotation_euler_xyz": [float(a) for a in _nodes.mapping_rotation_euler(scene.world)]
         if scene.world is not None
         else [0.0, 0.0, 0.0],
