@@ -279,8 +279,8 @@ def test_viewer_matches_render_view(demo_scene, browser_tools, tmp_path, lights,
         _tool("build_web.sh", "--out", page, "--glb", glb)
         job = dict(job, html=page, glb=None, drag=[150, 0], screenshots=True)
     summary = _run_viewer(browser_tools, dict(job, out=str(tmp_path / "viewer")), tmp_path)
-    assert summary["info"]["lights"] == count, summary["info"]  # forest: 4 lights, with samples
-    # One map per exported shadow view (forest: two wide lights of 16 views, two compact ones).
+    assert summary["info"]["lights"] == count, summary["info"]  # forest: 3 lights, with samples
+    # One map per exported shadow view (forest: two wide lights of 16 views, one compact one).
     exported = glb_module.read(glb)[0]["scenes"][0]["extras"]["PRT_lighting"]["lights"]
     want = [(index, view["wide"]) for index, light in enumerate(exported) for view in light["views"]]
     assert [(v["light"], v["wide"]) for v in summary["info"]["views"]] == want

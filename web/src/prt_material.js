@@ -129,31 +129,41 @@ float viewCosine(vec3 n, int v) {
   return sum;
 }
 
-float viewVisibility(sampler2DArray maps, int v, float c, int blockerTaps, int pcfTaps) {
+float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pcfTaps) {
   vec4 p = vec4(worldPos, 1.0);
   vec3 q = vec3(dot(sunRows[3 * v], p), dot(sunRows[3 * v + 1], p), dot(sunRows[3 * v + 2], p));
   float texel = sunParams[v].x;
   float tanA = sunParams[v].y;
   float res = sunParams[v].z;
   float layer = sunRange[v].z;
-  float slope = min(sqrt(max(1.0 - c * c, 0.0)) / c, ${MAX_SLOPE.toFixed(1)});
+  // The receiver's plane in the map (receiver-plane depth bias): depth changes by
+  // texel (n.t, n.b) / n.s per texel; sunRows[3v], [3v+1] are t, b over the texel size.
+  vec2 grad = vec2(dot(n, sunRows[3 * v].xyz), dot(n, sunRows[3 * v + 1].xyz)) * texel
+              / max(dot(n, sunDir[v].xyz), ${MIN_COSINE.toFixed(2)});
+  float slope = length(grad);
+  if (slope > ${MAX_SLOPE.toFixed(1)}) {
+    grad *= ${MAX_SLOPE.toFixed(1)} / slope;
+    slope = ${MAX_SLOPE.toFixed(1)};
+  }
+  grad *= texel;
+  float bias = texel * (1.0 + slope);
   float search = clamp(q.z * tanA / texel, 1.0, ${MAX_RADIUS.toFixed(1)});
-  float limit = q.z - texel * (1.0 + (search + 1.0) * slope);
   float sum = 0.0;
   float found = 0.0;
   for (int i = 0; i < blockerTaps; i++) {
-    float d = sunDepth(maps, q.xy + search * vogel(i, blockerTaps), layer, res);
-    if (d < limit) {
+    vec2 xy = q.xy + search * vogel(i, blockerTaps);
+    float d = sunDepth(maps, xy, layer, res);
+    if (d < q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias) {
       sum += d;
       found += 1.0;
     }
   }
   if (found == 0.0) return 1.0;
   float radius = clamp((q.z - sum / found) * tanA / texel, 0.5, ${MAX_RADIUS.toFixed(1)});
-  limit = q.z - texel * (1.0 + (radius + 1.0) * slope);
   float lit = 0.0;
   for (int i = 0; i < pcfTaps; i++) {
-    lit += step(limit, sunDepth(maps, q.xy + radius * vogel(i, pcfTaps), layer, res));
+    vec2 xy = q.xy + radius * vogel(i, pcfTaps);
+    lit += step(q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias, sunDepth(maps, xy, layer, res));
   }
   return lit / float(pcfTaps);
 }
@@ -164,10 +174,9 @@ const SUN_LOOP = (views) => `  vec3 n = normalize(nrmMatrix * localNrm);
   for (int v = 0; v < ${views}; v++) {
     float c = viewCosine(n, v);
     if (c > 0.0) {
-      float biasCos = max(dot(n, sunDir[v].xyz), ${MIN_COSINE.toFixed(2)});
       float vis = !useShadows ? 1.0
-        : sunRange[v].w > 0.5 ? viewVisibility(wideMaps, v, biasCos, ${WIDE_BLOCKER_TAPS}, ${WIDE_PCF_TAPS})
-        : viewVisibility(sharpMaps, v, biasCos, ${BLOCKER_TAPS}, ${PCF_TAPS});
+        : sunRange[v].w > 0.5 ? viewVisibility(wideMaps, v, n, ${WIDE_BLOCKER_TAPS}, ${WIDE_PCF_TAPS})
+        : viewVisibility(sharpMaps, v, n, ${BLOCKER_TAPS}, ${PCF_TAPS});
       sun += sunPower[v].rgb * (c * vis);
     }
   }
