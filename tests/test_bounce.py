@@ -196,3 +196,29 @@ def test_transport_apply_equals_the_dense_sum(channels, x_channels):
         A = bounce.Transport(entries, n_rows, channels)
         assert A.entries == rows.size
         np.testing.assert_allclose(A.apply(x), expected, rtol=1e-4, atol=1e-4)
+
+
+def test_hits_before_the_sink_is_set_give_the_same_entries():
+    """A LateSink set after the first slices ran (the job starts tracing before the bounce
+    system's tables exist) gives the entries of a sink given from the start."""
+    v, t, _f = open_sphere(rings=24, segments=48)
+    dirs = make_directions("FIBONACCI", 128, 0)
+    occ = raytrace.EmbreeOccluder(v, t)
+    results = []
+    for late in (False, True):
+        sink = bounce.HitTransport(v, t, t, 0.5, len(dirs.directions))
+        given = bounce.LateSink() if late else sink
+        comp = transfer.TransferComputation(
+            v, -v.astype(np.float64), dirs, 3, occ, offset=1e-4, hit_sink=given, threads=2, chunk_rays=5000
+        )
+        if late:
+            comp.start()
+            early = [e for _a, _b, future in comp._pending for e in future.result()[3]]
+            assert early and all(callable(e) for e in early)  # these slices' hits came before the sink
+            given.set(sink)
+        direct = comp.run().coeffs
+        A = bounce.Transport(comp.hits, len(v), 1)
+        results.append((direct, A.entries, A.apply(direct[:, None, :])))
+    assert results[1][1] == results[0][1] > 0
+    assert np.array_equal(results[0][0], results[1][0])
+    assert np.array_equal(results[0][2], results[1][2])

@@ -23,6 +23,7 @@ the rows as runs, one per point and block), and the same in the matrix (plus its
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from concurrent.futures import Executor
 
@@ -117,6 +118,28 @@ class HitTransport:
         # A block's rays are point-major, so its rows come sorted: kept as runs (4 bytes a hit less).
         runs = RowRuns(rows) if len(rows) < 2 or not np.any(rows[1:] < rows[:-1]) else rows
         return runs, nodes[keep], weights.astype(np.float32)
+
+
+class LateSink:
+    """A hit sink whose HitTransport comes later (set()), so that the shadow pass can start before
+    the tables it needs (every part's nodes, the albedo) are read: a slice's hits that arrive
+    before are kept as they came, in a callable that makes their entries (the computation calls
+    it when it collects the slice, in its caller's thread)."""
+
+    def __init__(self) -> None:
+        self.sink = None
+
+    def set(self, sink: HitTransport) -> None:
+        self.sink = sink
+
+    def __call__(self, *hits):
+        sink = self.sink
+        return sink(*hits) if sink is not None else functools.partial(self._late, hits)
+
+    def _late(self, hits):
+        if self.sink is None:
+            raise RuntimeError("the hits were collected before their sink was set")
+        return self.sink(*hits)
 
 
 def hit_barycentrics(corners: np.ndarray, origins: npt.ArrayLike, dirs: npt.ArrayLike):
