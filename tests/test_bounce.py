@@ -162,7 +162,8 @@ def test_nearest_triangles_and_barycentrics_locate_the_hit():
     assert list(prims) == [1, -1, 0]  # the nearer of two stacked triangles, from either side
     sink = bounce.HitTransport(v, [[3, 4, 5], [0, 1, 2]], [[0, 1, 2]] * 2, 1.0, 1)
     hit = prims >= 0
-    u, w, det = bounce.hit_barycentrics(sink.corners[prims[hit]], origins[hit], dirs[hit])
+    ud, wd, det = bounce.hit_barycentrics(sink.corners[prims[hit]], origins[hit], dirs[hit])
+    u, w = ud / det, wd / det
     corners = v[[[0, 1, 2], [3, 4, 5]]]
     located = (1 - u)[:, None] * corners[:, 0] + u[:, None] * corners[:, 1] + w[:, None] * corners[:, 2]
     np.testing.assert_allclose(located[:, :2], [[0.5, 0.6], [0.2, 0.3]], atol=1e-6)
@@ -222,3 +223,24 @@ def test_hits_before_the_sink_is_set_give_the_same_entries():
     assert results[1][1] == results[0][1] > 0
     assert np.array_equal(results[0][0], results[1][0])
     assert np.array_equal(results[0][2], results[1][2])
+
+
+def test_node_choice_follows_the_barycentric_weights():
+    """Hits at one point of a triangle, over a grid of (point, direction) pairs: each corner's
+    node is kept with its barycentric weight, and the choices of two points (or two directions)
+    are uncorrelated (the hash of the pair)."""
+    v = np.array([[0, 0, 1], [1, 0, 1], [0, 1, 1]], np.float32)
+    n_rows, n_dirs = 300, 200
+    sink = bounce.HitTransport(v, [[0, 1, 2]], [[10, 11, 12]], 1.0, n_dirs, seed=3)
+    rows, kdir = np.repeat(np.arange(n_rows), n_dirs), np.tile(np.arange(n_dirs), n_rows)
+    m = rows.size
+    origins = np.broadcast_to(np.float32([0.2, 0.3, 2.0]), (m, 3))
+    dirs = np.broadcast_to(np.float32([0, 0, -1]), (m, 3))
+    runs, nodes, weights = sink(rows, kdir, dirs, np.ones(m), np.zeros(m, np.int32), origins)
+    assert np.array_equal(runs.expand(), rows) and len(nodes) == m
+    np.testing.assert_allclose(weights, 4.0 / n_dirs)
+    frequency = np.bincount(nodes - 10, minlength=3) / m
+    np.testing.assert_allclose(frequency, [0.5, 0.2, 0.3], atol=0.01)  # (binomial SE < 0.0015)
+    first = (nodes == 11).reshape(n_rows, n_dirs).astype(float)
+    for a, b in ((first[:-1], first[1:]), (first[:, :-1], first[:, 1:])):  # neighbouring pairs
+        assert abs(np.corrcoef(a.ravel(), b.ravel())[0, 1]) < 0.02
