@@ -69,16 +69,17 @@ class Transport:
             parts = [(None, p[1], p[2]) for p in parts]
         if isinstance(entries, list):  # consumed: the caller's per-slice arrays are freed now
             entries.clear()
-        nodes = np.concatenate([p[1] for p in parts])
-        weights = np.concatenate([p[2] for p in parts])
+        # One zero-weight entry after the last: the slices' padding points at it.
+        nodes = np.concatenate([p[1] for p in parts] + [np.zeros(1, np.int32)])
+        weights = np.concatenate([p[2] for p in parts] + [np.zeros((1, parts[0][2].shape[1]), np.float32)])
         if not in_order:
             rows = np.concatenate([p[0].expand() if isinstance(p[0], RowRuns) else p[0] for p in parts])
-            order = np.argsort(rows, kind="stable")
-            rows, nodes, weights = rows[order], nodes[order], weights[order]
             counts = np.bincount(rows, minlength=self.n_rows)
+            order = np.r_[np.argsort(rows, kind="stable"), len(rows)]  # (the padding entry stays last)
+            nodes, weights = nodes[order], weights[order]
             del rows
         del parts
-        self.entries = len(nodes)
+        self.entries = pad = len(nodes) - 1
         first = np.cumsum(counts) - counts  # each row's first entry
         by_length = np.argsort(-counts, kind="stable")
         by_length = by_length[counts[by_length] > 0]
@@ -86,11 +87,9 @@ class Transport:
             ids = by_length[s0 : s0 + ROWS_PER_SLICE]
             width = int(counts[ids[0]])
             column = np.arange(width)
-            valid = column[None, :] < counts[ids][:, None]
-            index = np.where(valid, first[ids][:, None] + column[None, :], 0)
-            w = weights[index]
-            w[~valid] = 0.0
-            self.slices.append((ids.astype(np.intp), nodes[index], w))
+            index = first[ids][:, None] + column[None, :]
+            np.copyto(index, pad, where=column[None, :] >= counts[ids][:, None])
+            self.slices.append((ids.astype(np.intp), np.take(nodes, index), np.take(weights, index, axis=0)))
 
     @property
     def nbytes(self) -> int:
