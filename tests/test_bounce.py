@@ -1,5 +1,7 @@
 """Interreflected transfer in the core: the sphere-with-a-cap closed form, and the pass identities."""
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 import pytest
 
@@ -175,7 +177,7 @@ def test_nearest_triangles_and_barycentrics_locate_the_hit():
 
 
 @pytest.mark.parametrize("channels, x_channels", [(1, 1), (3, 1), (3, 3)])
-def test_transport_apply_equals_the_dense_sum(channels, x_channels):
+def test_transport_apply_equals_the_dense_sum(channels, x_channels, monkeypatch):
     """The sliced-ELLPACK product against np.add.at over the raw entries, for sorted entries
     given as row runs (the bake's case) and for unsorted ones, in grey and in colour."""
     rng = np.random.default_rng(7)
@@ -193,10 +195,13 @@ def test_transport_apply_equals_the_dense_sum(channels, x_channels):
     ]
     shuffled = rng.permutation(rows.size)
     unsorted = [(rows[shuffled], nodes[shuffled], weights[shuffled])]
+    monkeypatch.setattr(bounce, "SLICES_PER_TASK", 2)  # (6 slices: 3 tasks on the threads)
     for entries in (sorted_runs, unsorted):
         A = bounce.Transport(entries, n_rows, channels)
         assert A.entries == rows.size
         np.testing.assert_allclose(A.apply(x), expected, rtol=1e-4, atol=1e-4)
+        with ThreadPoolExecutor(2) as pool:
+            assert np.array_equal(A.apply(x, pool), A.apply(x))
 
 
 def test_hits_before_the_sink_is_set_give_the_same_entries():

@@ -30,6 +30,9 @@ from .bounce_hits import HitTransport, LateSink, RowRuns, hit_barycentrics  # no
 # Entry chunks of one matrix-vector product: at most this many float32 gathered values.
 GATHER_VALUES = 1 << 22
 ROWS_PER_SLICE = 512
+# Slices per task of a threaded product: with one task per slice the threads were slower than
+# one thread, with 8 faster (measured: docs/bake.md, "Cost").
+SLICES_PER_TASK = 8
 
 
 def _row_span(rows):
@@ -112,13 +115,18 @@ class Transport:
         """A x for x (nodes, 1 or C, nn) float32: (n_rows, C, nn) float32."""
         x = np.asarray(x, dtype=np.float32)
         out = np.zeros((self.n_rows, max(self.channels, x.shape[1]), x.shape[2]), dtype=np.float32)
-        if pool is None or len(self.slices) < 2:
-            for piece in self.slices:
-                self._apply_slice(x, out, *piece)
+        if pool is None or len(self.slices) <= SLICES_PER_TASK:
+            self._apply_slices(x, out, self.slices)
         else:  # every row is in one slice: the threads write disjoint rows
-            for future in [pool.submit(self._apply_slice, x, out, *piece) for piece in self.slices]:
+            tasks = range(0, len(self.slices), SLICES_PER_TASK)
+            futures = [pool.submit(self._apply_slices, x, out, self.slices[a : a + SLICES_PER_TASK]) for a in tasks]
+            for future in futures:
                 future.result()
         return out
+
+    def _apply_slices(self, x, out, slices):
+        for piece in slices:
+            self._apply_slice(x, out, *piece)
 
 
 class BouncePasses:
