@@ -3,6 +3,7 @@ repository root:
 
     .venv/bin/python benchmarks/bench_bounce.py            # bench_bake's scene, then 1M-vertex memory
     .venv/bin/python benchmarks/bench_bounce.py --quick    # smaller scene, smaller memory grid
+    .venv/bin/python benchmarks/bench_bounce.py --no-memory --repeats 15    # the speed part only
 
 Prints, on bench_bake.py's scene (subdivided Suzanne on a ground grid), medians [min - max] of
 interleaved repeats of the whole api.bake call with bounces = 0, 1 and 3 and their ratios to the
@@ -109,6 +110,7 @@ def main():
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--memory-child", type=int, default=-1)
     parser.add_argument("--side", type=int, default=1000)
+    parser.add_argument("--no-memory", action="store_true", help="skip the 1M-vertex memory runs")
     args = parser.parse_args()
     if args.memory_child >= 0:
         memory_child(args.memory_child, args.side)
@@ -118,7 +120,8 @@ def main():
         args.side, args.repeats = 300, 3
     prt_addon.register()
     speed(args)
-    memory(args)
+    if not args.no_memory:
+        memory(args)
 
 
 if __name__ == "__main__":

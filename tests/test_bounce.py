@@ -1,5 +1,7 @@
 """Interreflected transfer in the core: the sphere-with-a-cap closed form, and the pass identities."""
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 import pytest
 
@@ -162,7 +164,8 @@ def test_nearest_triangles_and_barycentrics_locate_the_hit():
     assert list(prims) == [1, -1, 0]  # the nearer of two stacked triangles, from either side
     sink = bounce.HitTransport(v, [[3, 4, 5], [0, 1, 2]], [[0, 1, 2]] * 2, 1.0, 1)
     hit = prims >= 0
-    u, w, det = bounce.hit_barycentrics(sink.corners[prims[hit]], origins[hit], dirs[hit])
+    ud, wd, det = bounce.hit_barycentrics(sink.corners[prims[hit]], origins[hit], dirs[hit])
+    u, w = ud / det, wd / det
     corners = v[[[0, 1, 2], [3, 4, 5]]]
     located = (1 - u)[:, None] * corners[:, 0] + u[:, None] * corners[:, 1] + w[:, None] * corners[:, 2]
     np.testing.assert_allclose(located[:, :2], [[0.5, 0.6], [0.2, 0.3]], atol=1e-6)
@@ -174,7 +177,7 @@ def test_nearest_triangles_and_barycentrics_locate_the_hit():
 
 
 @pytest.mark.parametrize("channels, x_channels", [(1, 1), (3, 1), (3, 3)])
-def test_transport_apply_equals_the_dense_sum(channels, x_channels):
+def test_transport_apply_equals_the_dense_sum(channels, x_channels, monkeypatch):
     """The sliced-ELLPACK product against np.add.at over the raw entries, for sorted entries
     given as row runs (the bake's case) and for unsorted ones, in grey and in colour."""
     rng = np.random.default_rng(7)
@@ -192,7 +195,57 @@ def test_transport_apply_equals_the_dense_sum(channels, x_channels):
     ]
     shuffled = rng.permutation(rows.size)
     unsorted = [(rows[shuffled], nodes[shuffled], weights[shuffled])]
+    monkeypatch.setattr(bounce, "SLICES_PER_TASK", 2)  # (6 slices: 3 tasks on the threads)
     for entries in (sorted_runs, unsorted):
         A = bounce.Transport(entries, n_rows, channels)
         assert A.entries == rows.size
         np.testing.assert_allclose(A.apply(x), expected, rtol=1e-4, atol=1e-4)
+        with ThreadPoolExecutor(2) as pool:
+            assert np.array_equal(A.apply(x, pool), A.apply(x))
+
+
+def test_hits_before_the_sink_is_set_give_the_same_entries():
+    """A LateSink set after the first slices ran (the job starts tracing before the bounce
+    system's tables exist) gives the entries of a sink given from the start."""
+    v, t, _f = open_sphere(rings=24, segments=48)
+    dirs = make_directions("FIBONACCI", 128, 0)
+    occ = raytrace.EmbreeOccluder(v, t)
+    results = []
+    for late in (False, True):
+        sink = bounce.HitTransport(v, t, t, 0.5, len(dirs.directions))
+        given = bounce.LateSink() if late else sink
+        comp = transfer.TransferComputation(
+            v, -v.astype(np.float64), dirs, 3, occ, offset=1e-4, hit_sink=given, threads=2, chunk_rays=5000
+        )
+        if late:
+            comp.start()
+            early = [e for _a, _b, future in comp._pending for e in future.result()[3]]
+            assert early and all(callable(e) for e in early)  # these slices' hits came before the sink
+            given.set(sink)
+        direct = comp.run().coeffs
+        A = bounce.Transport(comp.hits, len(v), 1)
+        results.append((direct, A.entries, A.apply(direct[:, None, :])))
+    assert results[1][1] == results[0][1] > 0
+    assert np.array_equal(results[0][0], results[1][0])
+    assert np.array_equal(results[0][2], results[1][2])
+
+
+def test_node_choice_follows_the_barycentric_weights():
+    """Hits at one point of a triangle, over a grid of (point, direction) pairs: each corner's
+    node is kept with its barycentric weight, and the choices of two points (or two directions)
+    are uncorrelated (the hash of the pair)."""
+    v = np.array([[0, 0, 1], [1, 0, 1], [0, 1, 1]], np.float32)
+    n_rows, n_dirs = 300, 200
+    sink = bounce.HitTransport(v, [[0, 1, 2]], [[10, 11, 12]], 1.0, n_dirs, seed=3)
+    rows, kdir = np.repeat(np.arange(n_rows), n_dirs), np.tile(np.arange(n_dirs), n_rows)
+    m = rows.size
+    origins = np.broadcast_to(np.float32([0.2, 0.3, 2.0]), (m, 3))
+    dirs = np.broadcast_to(np.float32([0, 0, -1]), (m, 3))
+    runs, nodes, weights = sink(rows, kdir, dirs, np.ones(m), np.zeros(m, np.int32), origins)
+    assert np.array_equal(runs.expand(), rows) and len(nodes) == m
+    np.testing.assert_allclose(weights, 4.0 / n_dirs)
+    frequency = np.bincount(nodes - 10, minlength=3) / m
+    np.testing.assert_allclose(frequency, [0.5, 0.2, 0.3], atol=0.01)  # (binomial SE < 0.0015)
+    first = (nodes == 11).reshape(n_rows, n_dirs).astype(float)
+    for a, b in ((first[:-1], first[1:]), (first[:, :-1], first[:, 1:])):  # neighbouring pairs
+        assert abs(np.corrcoef(a.ravel(), b.ravel())[0, 1]) < 0.02

@@ -136,3 +136,20 @@ def test_vertex_normal_pairs_merges_only_within_tolerance(mesh_io):
     vert, pair_normals, inverse = core_mesh.vertex_normal_pairs(corner_verts[:3], normals[:3], 3)
     np.testing.assert_array_equal(vert, [0, 2])
     np.testing.assert_array_equal(inverse, [1, 1, 0])
+
+
+def test_read_face_materials_from_the_attribute_and_without_it(empty_scene, bpy_module, addon):
+    """The faces' material slots read from the material_index attribute equal mesh.polygons';
+    a mesh that never had slots assigned (no attribute) reads slot 0 everywhere."""
+    from prt_addon.blender import mesh_read as mesh_io
+
+    bpy = bpy_module
+    mesh = _mesh(bpy, "slots", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (2, 0, 0)], [(0, 1, 2, 3), (1, 4, 2)])
+    assert mesh.attributes.get("material_index") is None
+    assert mesh_io.read_face_materials(mesh).tolist() == [0, 0]
+    for name in ("a", "b", "c"):
+        mesh.materials.append(bpy.data.materials.new(name))
+    mesh.polygons.foreach_set("material_index", [2, 1])
+    expected = np.zeros(2, dtype=np.int32)
+    mesh.polygons.foreach_get("material_index", expected)
+    assert mesh_io.read_face_materials(mesh).tolist() == expected.tolist() == [2, 1]

@@ -97,7 +97,11 @@ def read_triangle_corners(mesh, positions=None):
 def read_face_materials(mesh):
     out = np.zeros(len(mesh.polygons), dtype=np.int32)
     if len(out):
-        mesh.polygons.foreach_get("material_index", out)
+        attr = mesh.attributes.get("material_index")  # (absent: every face uses slot 0)
+        if attr is not None and attr.data_type == "INT" and attr.domain == "FACE":
+            attr.data.foreach_get("value", out)  # ~100 times faster than mesh.polygons
+        elif attr is not None:
+            mesh.polygons.foreach_get("material_index", out)
     return out
 
 

@@ -36,7 +36,7 @@ slices (Embree and numpy release the GIL), queued ahead of the one step() collec
 Interreflection (core.bounce): with a hit_sink, the rays of the first ceil(K / 2) error groups
 (directions [0, hit_end): a well-spread half of the set) ask for their nearest triangle instead,
 and the blocked ones go to the sink with their weights times N / hit_end (unbiased); its entries
-are kept per slice in point order (self.hits).
+are kept per slice in point order (self.hits), made by step() if the sink returned a callable.
 """
 
 from __future__ import annotations
@@ -362,8 +362,8 @@ class TransferComputation:
             else:
                 a, b = self.done, min(self.total, self.done + self.points_per_slice)
                 t, err, stats, entries = self._slice(a, b)
-            if self.hit_sink is not None:
-                self.hits.extend(entries)
+            if self.hit_sink is not None:  # (a callable: entries the sink could not make yet)
+                self.hits.extend(e() if callable(e) else e for e in entries)
             self.coeffs[a:b] = t
             self.error[a:b] = err
             self.stats.add(stats)

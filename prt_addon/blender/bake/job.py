@@ -12,7 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 import bpy
 import numpy as np
 
-from ...core import raytrace, transfer
+from ...core import bounce, raytrace, transfer
 from ...core.directions import make_directions
 from ...core.mesh import concatenate_parts
 from ...core.occluders import LazyOccluder
@@ -52,6 +52,7 @@ class BakeJob:
             self.settings.threads = blender_threads(depsgraph.scene)
         self.plans = []
         self.bounce = None  # BounceSystem of an interreflected bake
+        self._sink = bounce.LateSink() if self.settings.bounces else None  # its computations' hit sink
         self._sources = [] if self.settings.bounces else None
         self._reads = {}  # evaluated mesh pointer -> (positions, triangles), read once
         self._pool = ThreadPoolExecutor(max(1, self.settings.threads), thread_name_prefix="prt-bake")
@@ -75,20 +76,19 @@ class BakeJob:
                 scene.start(self._pool)
             self.directions = make_directions(self.settings.direction_set, self.settings.samples, self.settings.seed)
             # The first object's slices start as soon as its points are ready: they trace while
-            # the other objects' points are read.
+            # the other objects' points are read and, in an interreflected bake, while the bounce
+            # system reads its tables (which need every part's nodes): hits that come before
+            # those are kept as they came until the slice is collected (core.bounce.LateSink).
             for index, plan in enumerate(self.plans):
                 mesh_eval, positions = plan.source
                 plan.points = mesh_read.bake_points(mesh_eval, plan.matrix, positions)
                 plan.source = None
-                if not self.settings.bounces:
-                    plan.computation = self._computation(plan)
-                    if index == 0:
-                        plan.computation.start()
-            if self.settings.bounces:  # every part's nodes are known before the first ray
+                plan.computation = self._computation(plan)
+                if index == 0:
+                    plan.computation.start()
+            if self.settings.bounces:
                 self.bounce = BounceSystem(self, self._parts, self._sources)
-                for plan in self.plans:
-                    plan.computation = self._computation(plan)
-                self.plans[0].computation.start()
+                self._sink.set(self.bounce.sink)
             self._parts = self._reads = self._sources = None  # not needed any more: free the arrays
         except BaseException:
             self.close()
@@ -137,9 +137,8 @@ class BakeJob:
         # normal, so that rays from a point in another surface's plane (a box standing on the
         # ground) do not slip under it (docs/bake.md, "Contacts"). Unshadowed: not needed.
         surface = None if plan.occluder is None else (plan.own_vertices, plan.own_triangles)
-        sink = None if self.bounce is None else self.bounce.sink
         return self.transfer_computation(
-            plan.points, plan.occluder, plan.offset, plan.self_occludes, plan.boxes, surface, sink
+            plan.points, plan.occluder, plan.offset, plan.self_occludes, plan.boxes, surface, self._sink
         )
 
     def transfer_computation(self, points, occluder, offset, self_occludes, boxes, surface, hit_sink=None):
