@@ -33,7 +33,7 @@ MAX_SLOPE = 20.0  # tan of the receiver's angle to the light, capped for the bia
 UBO_SOURCE = (
     f"struct PRTSuns {{ vec4 header; vec4 nrm[3]; vec4 to_light[{3 * MAX_VIEWS}]; vec4 dir[{MAX_VIEWS}]; "
     f"vec4 axes[{2 * MAX_VIEWS}]; vec4 power[{MAX_VIEWS}]; vec4 params[{MAX_VIEWS}]; vec4 range[{MAX_VIEWS}]; "
-    f"vec4 samples[{MAX_SUNS * MAX_SAMPLES}]; }};\n"
+    f"vec4 samples[{2 * MAX_SUNS * MAX_SAMPLES}]; }};\n"
 )
 
 _FUNCTIONS = f"""
@@ -51,6 +51,16 @@ vec2 vogel(int i, int n)
   float r = sqrt((float(i) + 0.5) / float(n));
   float a = float(i) * 2.3999632;
   return r * vec2(cos(a), sin(a));
+}}
+
+float compact_cosine(vec3 n, int v)
+{{
+  float sum = 0.0;
+  for (int j = 0; j < {MAX_SAMPLES}; j++) {{
+    vec4 s = suns.samples[{MAX_SAMPLES} * v + j];
+    sum += s.w * max(dot(n, s.xyz), 0.0);
+  }}
+  return sum;
 }}
 
 float view_cosine(vec3 n, int v)
@@ -144,7 +154,7 @@ def add_suns(info, layout, vertex_source, attr_index):
         "                          dot(suns.nrm[2].xyz, local_nrm)));\n"
         "  vec3 sun = vec3(0.0);\n"
         f"  for (int v = 0; v < {compact}; v++) {{\n"
-        "    float c = view_cosine(n, v);\n"
+        "    float c = compact_cosine(n, v);\n"
         "    if (c > 0.0) {\n"
         f"      sun += suns.power[v].rgb * (c * view_visibility(sharp_maps, v, n, {BLOCKER_TAPS}, {PCF_TAPS}));\n"
         "    }\n"
@@ -177,10 +187,10 @@ def suns_ubo_bytes(lights, shadow_set, matrix_world):
     power_at = axes_at + 2 * MAX_VIEWS
     params_at, range_at = power_at + MAX_VIEWS, power_at + 2 * MAX_VIEWS
     samples_at = power_at + 3 * MAX_VIEWS
-    data = np.zeros((samples_at + MAX_SUNS * MAX_SAMPLES, 4))
+    data = np.zeros((samples_at + 2 * MAX_SUNS * MAX_SAMPLES, 4))
     data[0, 0] = len(views)
     data[1:4, :3] = np.linalg.inv(mw[:3, :3]).T
-    first = 0
+    first = MAX_SUNS * MAX_SAMPLES  # a wide view's samples, after the compact views' 16 slots each
     for v, (view, placed) in enumerate(zip(views, maps)):
         data[rows_at + 3 * v : rows_at + 3 * v + 3] = placed.rows @ mw
         data[dir_at + v, :3] = view.direction
@@ -189,7 +199,8 @@ def suns_ubo_bytes(lights, shadow_set, matrix_world):
         wide = 1.0 if placed.wide else 0.0
         data[params_at + v] = (placed.texel, np.tan(min(view.angle, 1.5)), placed.resolution, wide)
         count = len(view.weights)
-        data[range_at + v] = (first, count, *placed.origin)
-        data[samples_at + first : samples_at + first + count] = np.c_[view.samples, view.weights]
-        first += count
+        at = MAX_SAMPLES * v if not placed.wide else first
+        data[range_at + v] = (at, count, *placed.origin)
+        data[samples_at + at : samples_at + at + count] = np.c_[view.samples, view.weights]
+        first += count if placed.wide else 0
     return data.astype(np.float32).tobytes()
