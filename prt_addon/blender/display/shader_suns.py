@@ -31,7 +31,7 @@ MAX_RADIUS = 16.0  # texels: widest penumbra filtered
 MAX_SLOPE = 20.0  # tan of the receiver's angle to the light, capped for the bias
 
 UBO_SOURCE = (
-    f"struct PRTSuns {{ vec4 header; vec4 nrm[3]; vec4 to_light[{3 * MAX_VIEWS}]; vec4 dir[{MAX_VIEWS}]; "
+    f"struct PRTSuns {{ vec4 nrm[3]; vec4 to_light[{3 * MAX_VIEWS}]; vec4 dir[{MAX_VIEWS}]; "
     f"vec4 axes[{2 * MAX_VIEWS}]; vec4 power[{MAX_VIEWS}]; vec4 params[{MAX_VIEWS}]; vec4 range[{MAX_VIEWS}]; "
     f"vec4 samples[{2 * MAX_SUNS * MAX_SAMPLES}]; }};\n"
 )
@@ -173,31 +173,29 @@ def add_suns(info, layout, vertex_source, attr_index):
 
 
 def suns_ubo_bytes(lights, shadow_set, matrix_world):
-    """std140 bytes of PRTSuns for one object: the view count, its normal matrix, and per view
+    """std140 bytes of PRTSuns for one object: its normal matrix, and per view
     (core.shadow_views; the compact lights' views first, as view_layout counts them) the local ->
     (texel x, texel y, depth) rows of its map, its direction, the map's world axes t and b, P / pi
-    of its light, (texel size, tan filter angle, resolution, wide), (first sample, sample count,
+    of its light, (texel size, tan filter angle, resolution), (first sample, sample count,
     the first texel of its tile in the atlas) and the samples (direction, weight)."""
     mw = np.asarray(matrix_world, dtype=np.float64)
     order = sorted(range(len(shadow_set.views)), key=lambda i: shadow_set.maps[i].wide)  # compact first
     views = [shadow_set.views[i] for i in order]
     maps = [shadow_set.maps[i] for i in order]
-    rows_at, dir_at = 4, 4 + 3 * MAX_VIEWS
+    rows_at, dir_at = 3, 3 + 3 * MAX_VIEWS
     axes_at = dir_at + MAX_VIEWS
     power_at = axes_at + 2 * MAX_VIEWS
     params_at, range_at = power_at + MAX_VIEWS, power_at + 2 * MAX_VIEWS
     samples_at = power_at + 3 * MAX_VIEWS
     data = np.zeros((samples_at + 2 * MAX_SUNS * MAX_SAMPLES, 4))
-    data[0, 0] = len(views)
-    data[1:4, :3] = np.linalg.inv(mw[:3, :3]).T
+    data[0:3, :3] = np.linalg.inv(mw[:3, :3]).T
     first = MAX_SUNS * MAX_SAMPLES  # a wide view's samples, after the compact views' 16 slots each
     for v, (view, placed) in enumerate(zip(views, maps)):
         data[rows_at + 3 * v : rows_at + 3 * v + 3] = placed.rows @ mw
         data[dir_at + v, :3] = view.direction
         data[axes_at + 2 * v : axes_at + 2 * v + 2, :3] = placed.rows[:2, :3] * placed.texel  # unit t, b
         data[power_at + v, :3] = lights[view.light].power / np.pi
-        wide = 1.0 if placed.wide else 0.0
-        data[params_at + v] = (placed.texel, np.tan(min(view.angle, 1.5)), placed.resolution, wide)
+        data[params_at + v, :3] = (placed.texel, np.tan(min(view.angle, 1.5)), placed.resolution)
         count = len(view.weights)
         at = MAX_SAMPLES * v if not placed.wide else first
         data[range_at + v] = (at, count, *placed.origin)
