@@ -6,8 +6,9 @@ One baked UV sphere of N triangles over a baked ground quad, drawn by display.dr
 512x512 RGBA32F offscreen with depth test, each frame synchronised by a one-pixel read-back.
 Per light count two variants: "cached" (the shadow maps are reused) and "map drawn" (every
 frame turns the lights a little, so every map is drawn again: the cost of rotating the HDRI).
-"1 wide light" is a light of 16 samples over a 20 degree cap, drawn from 16 maps
-(core.shadow_views) at the wide maps' resolution. All variants are interleaved frame by frame; medians. llvmpipe timings are noisy (shared cores).
+"1 wide light" is a light of 16 samples over a 20 degree cap, drawn from as many maps as the
+triangle budget gives (core.shadow_views) at the wide maps' resolution. All variants are
+interleaved frame by frame; medians. llvmpipe timings are noisy (shared cores).
 """
 
 import argparse

@@ -120,11 +120,20 @@ float view_visibility(sampler2D maps, int v, vec3 n, int blocker_taps, int pcf_t
 
 
 def view_layout(shadow_set):
-    """(compact views, wide views) of a ShadowSet: the shader is compiled for these counts, so
-    its loops over the views have constant bounds (on software GL a loop bound read from the
-    uniform buffer made one light's frame about a quarter slower)."""
+    """(compact views, wide views) of a ShadowSet: the shader is compiled for these counts (the
+    compact views written out, the wide views in a loop of constant bound)."""
     wide = sum(1 for m in shadow_set.maps if m.wide)
     return len(shadow_set.maps) - wide, wide
+
+
+def _view_lines(v, maps, cosine, blocker_taps, pcf_taps):
+    """GLSL adding view `v`'s light (a literal index, or a loop variable's name) to `sun`."""
+    return (
+        f"  c = {cosine}(n, {v});\n"
+        "  if (c > 0.0) {\n"
+        f"    sun += suns.power[{v}].rgb * (c * view_visibility({maps}, {v}, n, {blocker_taps}, {pcf_taps}));\n"
+        "  }\n"
+    )
 
 
 def add_suns(info, layout, vertex_source, attr_index):
@@ -148,26 +157,24 @@ def add_suns(info, layout, vertex_source, attr_index):
         "  local_nrm = prt_nrm;\n"
         "  gl_Position = mvp",
     )
+    # Compact views written out one by one: on llvmpipe the same code in a loop of constant
+    # bound (not unrolled, as its body is large) made the frame slower (docs/display.md).
+    # Wide views stay in one loop: written out they were no faster and compile to far more code.
+    views = [_view_lines(v, "sharp_maps", "compact_cosine", BLOCKER_TAPS, PCF_TAPS) for v in range(compact)]
+    if wide:
+        views.append(
+            f"  for (int v = {compact}; v < {compact + wide}; v++) {{\n"
+            + _view_lines("v", "wide_maps", "view_cosine", WIDE_BLOCKER_TAPS, WIDE_PCF_TAPS)
+            + "  }\n"
+        )
     fragment = _FUNCTIONS + (
         "void main()\n{\n"
         "  vec3 n = normalize(vec3(dot(suns.nrm[0].xyz, local_nrm), dot(suns.nrm[1].xyz, local_nrm),\n"
         "                          dot(suns.nrm[2].xyz, local_nrm)));\n"
         "  vec3 sun = vec3(0.0);\n"
-        f"  for (int v = 0; v < {compact}; v++) {{\n"
-        "    float c = compact_cosine(n, v);\n"
-        "    if (c > 0.0) {\n"
-        f"      sun += suns.power[v].rgb * (c * view_visibility(sharp_maps, v, n, {BLOCKER_TAPS}, {PCF_TAPS}));\n"
-        "    }\n"
-        "  }\n"
-        f"  for (int v = {compact}; v < {compact + wide}; v++) {{\n"
-        "    float c = view_cosine(n, v);\n"
-        "    if (c > 0.0) {\n"
-        "      sun += suns.power[v].rgb * (c * view_visibility(wide_maps, v, n, "
-        f"{WIDE_BLOCKER_TAPS}, {WIDE_PCF_TAPS}));\n"
-        "    }\n"
-        "  }\n"
-        "  FragColor = vec4(display_transform(radiance + surface_albedo * sun), 1.0);\n"
-        "}\n"
+        "  float c;\n"
+        + "".join(views)
+        + "  FragColor = vec4(display_transform(radiance + surface_albedo * sun), 1.0);\n}\n"
     )
     return vertex, fragment
 
