@@ -7,12 +7,6 @@ import pytest
 pytestmark = pytest.mark.blender
 
 
-@pytest.fixture
-def mesh_io(addon):
-
-    return mesh_io
-
-
 def _loop_triangles(mesh):
     """Blender's own triangulation, read element by element (the reference)."""
     mesh.calc_loop_triangles()
@@ -28,7 +22,7 @@ def _mesh(bpy, name, vertices, faces):
     return mesh
 
 
-def _flips(mesh_io, mesh):
+def _flips(mesh):
     """Per quad of the mesh: whether Blender's first split (0-2 diagonal) was replaced."""
     from prt_addon.blender import mesh_read
 
@@ -41,7 +35,7 @@ def _flips(mesh_io, mesh):
     return triangles[first[quads], 2] != corner_verts[starts[quads] + 2]
 
 
-def test_read_triangles_matches_loop_triangles_on_quads_and_triangles(empty_scene, bpy_module, mesh_io):
+def test_read_triangles_matches_loop_triangles_on_quads_and_triangles(empty_scene, bpy_module, addon):
     """Random non-planar quads (about half of them take Blender's flipped split), darts concave
     at either corner, degenerate quads (a repeated point, collinear points, all one point) and
     triangles, mixed in one mesh: the same triangles in the same order as mesh.loop_triangles."""
@@ -64,7 +58,7 @@ def test_read_triangles_matches_loop_triangles_on_quads_and_triangles(empty_scen
     add([(0, 0, 0), (1, 0, 0), (2, 0, 0), (3, 0, 0)])  # collinear
     add([(1, 2, 3)] * 4)  # one point
     mesh = _mesh(bpy, "mixed", vertices, faces)
-    flips = _flips(mesh_io, mesh)
+    flips = _flips(mesh)
     assert 0.2 < flips.mean() < 0.8 and flips[-5:-3].all()  # both splits are exercised
     np.testing.assert_array_equal(mesh_read.read_triangles(mesh), _loop_triangles(mesh))
 
@@ -78,12 +72,12 @@ def test_read_triangles_matches_loop_triangles_on_quads_and_triangles(empty_scen
     monkey = bpy.context.object
     monkey.modifiers.new("s", "SUBSURF").levels = 1
     bpy.ops.object.modifier_apply(modifier="s")
-    assert _flips(mesh_io, grid).any()  # (Suzanne has none)
+    assert _flips(grid).any()  # (Suzanne has none)
     for shape in (grid, monkey.data):
         np.testing.assert_array_equal(mesh_read.read_triangles(shape), _loop_triangles(shape))
 
 
-def test_read_triangles_with_ngons_and_without_faces(empty_scene, bpy_module, mesh_io):
+def test_read_triangles_with_ngons_and_without_faces(empty_scene, bpy_module, addon):
     """N-gons (here a concave hexagon and a cylinder's caps) are read from loop_triangles; a mesh
     without faces has no triangles."""
     from prt_addon.blender import mesh_read
@@ -100,7 +94,7 @@ def test_read_triangles_with_ngons_and_without_faces(empty_scene, bpy_module, me
     assert mesh_read.read_triangles(points).shape == (0, 3)
 
 
-def test_flat_grid_with_rounded_normals_bakes_per_vertex(empty_scene, bpy_module, mesh_io):
+def test_flat_grid_with_rounded_normals_bakes_per_vertex(empty_scene, bpy_module, addon):
     """A flat-shaded grid's face normals come out as (0, 0, 1) or (0, 0, 0.99999994) depending
     on the face; still one normal per vertex, so one bake point per vertex (POINT)."""
     from prt_addon.blender import mesh_read
@@ -116,7 +110,7 @@ def test_flat_grid_with_rounded_normals_bakes_per_vertex(empty_scene, bpy_module
     np.testing.assert_allclose(points.normals, np.tile([0.0, 0.0, 1.0], (len(mesh.vertices), 1)), atol=1e-6)
 
 
-def test_vertex_normal_pairs_merges_only_within_tolerance(mesh_io):
+def test_vertex_normal_pairs_merges_only_within_tolerance():
     """Corner normals of one vertex within NORMAL_TOLERANCE are one pair; farther ones, and the
     same normal at another vertex, stay separate; inverse maps each corner to its pair."""
     from prt_addon.core import mesh as core_mesh
