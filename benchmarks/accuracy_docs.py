@@ -9,7 +9,6 @@ import math
 import os
 
 import numpy as np
-
 from accuracy_plots import plots
 
 
@@ -267,7 +266,7 @@ def write(results, docs_dir):
     a(
         "`report.error_estimate` (RMS over vertices of the per-point estimate, see [bake.md](bake.md)) divided "
         "by the measured RMS |t - t_conv| of the same bake; in brackets the ratio before the Fibonacci "
-        "calibration (`core.transfer.error_calibration`):\n"
+        "calibration (`core.transfer.quadrature.error_calibration`):\n"
     )
     for kind in cfg["sets"]:
         ratios = [

@@ -1,7 +1,6 @@
 """The stiff-lighting (ringing and windows) and float32 sections of docs/accuracy.md."""
 
 import numpy as np
-
 from accuracy_docs import pct, table
 from accuracy_report import WINDOWS  # the windows the report measures
 

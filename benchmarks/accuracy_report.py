@@ -38,11 +38,10 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-import numpy as np  # noqa: E402
-
-from prt_addon.core.resample import LUMINANCE as LUMA  # noqa: E402
-
-from accuracy_scenes import (  # noqa: E402  (benchmarks/: the scenes and their references)
+import numpy as np
+from accuracy_scenes import (
+    BACKGROUND,
+    CAP_AXIS,
     build_scene,
     cap_truth,
     cycles_bake,
@@ -51,9 +50,9 @@ from accuracy_scenes import (  # noqa: E402  (benchmarks/: the scenes and their 
     scene_points,
     set_world,
     transfer_float64,
-    CAP_AXIS,
-    BACKGROUND,
 )
+
+from prt_addon.core.sh.resample import LUMINANCE as LUMA
 
 FULL = dict(
     orders=[2, 3, 4, 6, 8],
@@ -134,13 +133,13 @@ def ringing_row(transfer, light, truth_y):
 
 def run(cfg, cache, only_split=False):
     """Every section's numbers; only_split measures the light split section alone."""
-    import bpy
-
     import accuracy_split
+    import bpy
 
     import prt_addon
     from prt_addon import api
-    from prt_addon.core import analytic, transfer
+    from prt_addon.core.sh import analytic
+    from prt_addon.core.transfer import quadrature as transfer
 
     prt_addon.register()
     results = {"config": cfg, "scenes": {}, "machine": os.uname().nodename, "started": time.ctime()}
@@ -329,6 +328,6 @@ if __name__ == "__main__":
         with open(args.json, "w") as f:
             json.dump(results, f, indent=1)
         log("saved", args.json)
-    import accuracy_docs  # noqa: E402  (benchmarks/accuracy_docs.py: tables, plots, text)
+    import accuracy_docs
 
     accuracy_docs.write(results, args.docs)

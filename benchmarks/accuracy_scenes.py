@@ -134,8 +134,8 @@ def cycles_bake(bpy, scene, objs, samples, seed):
 
 
 def read_prt(objs):
-    from prt_addon.blender import storage
     from prt_addon.blender.display import gpu_cache
+    from prt_addon.blender.scene import storage
 
     out = []
     for obj in objs:
@@ -165,10 +165,9 @@ def radiance(transfer, light):
 def scene_points(bpy, objs):
     """World positions, normals, offsets, an Embree occluder and the triangles of the whole scene
     (each object's points are its vertices: the report's meshes are smooth, one normal each)."""
-    from prt_addon.blender.bake import settings as bake_settings
-    from prt_addon.blender import mesh_read
-    from prt_addon.core import mesh as core_mesh
-    from prt_addon.core import raytrace
+    from prt_addon.blender.scene import mesh_read, parts as scene_parts
+    from prt_addon.core.trace import raytrace
+    from prt_addon.core.transfer import mesh as core_mesh
 
     pos, nrm, off, verts, tris = [], [], [], [], []
     base = 0
@@ -183,7 +182,7 @@ def scene_points(bpy, objs):
         off.append(
             np.full(
                 len(pts.positions),
-                max(bake_settings.OFFSET_REL * diag, bake_settings.OFFSET_ULP * float(np.abs(v).max())),
+                max(scene_parts.OFFSET_REL * diag, scene_parts.OFFSET_ULP * float(np.abs(v).max())),
             )
         )
         verts.append(v)
@@ -197,7 +196,8 @@ def scene_points(bpy, objs):
 def transfer_float64(points, order, samples):
     """The bake's transfer in float64: the same rays (offset along the normal and into the point's
     own surface, as api.bake does; the objects share no vertex, so one surface serves all)."""
-    from prt_addon.core import directions, transfer
+    from prt_addon.core.sh import directions
+    from prt_addon.core.transfer import quadrature as transfer
 
     pos, nrm, off, occ, surface = points
     comp = transfer.TransferComputation(

@@ -17,7 +17,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from prt_addon.core.resample import LUMINANCE as LUMA
+from prt_addon.core.sh.resample import LUMINANCE as LUMA
 
 HDRIS = ["city", "courtyard", "forest", "interior", "night", "studio", "sunrise", "sunset"]
 ORDERS = [4, 8]
@@ -76,7 +76,7 @@ def quadrature_nodes(rgb, coarse, bright=BRIGHT):
     each texel's centre); every other texel is summed into blocks of a coarse (H, W) grid (power
     conserved, node at the block's power-weighted mean direction). Texel solid angles are exact.
     """
-    from prt_addon.core.projection import pixel_directions, pixel_solid_angles
+    from prt_addon.core.sh.projection import pixel_directions, pixel_solid_angles
 
     height, width, _ = rgb.shape
     solid = pixel_solid_angles(height, width)[:, None]
@@ -102,12 +102,11 @@ def quadrature_nodes(rgb, coarse, bright=BRIGHT):
 
 def ray_origins(bpy, objs):
     """World positions, unit normals, ray origins (the bake's offset along the normal and into
-    the point's own surface, core.contact) and an Embree occluder of the whole scene."""
-    from prt_addon.blender import mesh_read
-    from prt_addon.blender.bake import settings as bake_settings
-    from prt_addon.core import mesh as core_mesh
-    from prt_addon.core import raytrace
-    from prt_addon.core.contact import inward_tangents
+    the point's own surface, core.transfer.contact) and an Embree occluder of the whole scene."""
+    from prt_addon.blender.scene import mesh_read, parts as scene_parts
+    from prt_addon.core.trace import raytrace
+    from prt_addon.core.transfer import mesh as core_mesh
+    from prt_addon.core.transfer.contact import inward_tangents
 
     pos, nrm, org, verts, tris = [], [], [], [], []
     base = 0
@@ -117,7 +116,7 @@ def ray_origins(bpy, objs):
         v = core_mesh.transform_points(m4, mesh_read.read_positions(obj.data))
         t = mesh_read.read_triangles(obj.data)
         diag = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
-        off = max(bake_settings.OFFSET_REL * diag, bake_settings.OFFSET_ULP * float(np.abs(v).max()))
+        off = max(scene_parts.OFFSET_REL * diag, scene_parts.OFFSET_ULP * float(np.abs(v).max()))
         n = pts.normals / np.linalg.norm(pts.normals, axis=1, keepdims=True)
         lift = n + inward_tangents(pts.positions, n, v, t, pts.vertex)
         pos.append(pts.positions)
@@ -297,8 +296,8 @@ def rasterise(bpy, scene, objs, colours):
     import gpu
     from gpu_extras.batch import batch_for_shader
 
-    from prt_addon.blender import mesh_read
     from prt_addon.blender.display import offscreen
+    from prt_addon.blender.scene import mesh_read
 
     offscreen.ensure_gpu()
     width, height = PICTURE_SIZE

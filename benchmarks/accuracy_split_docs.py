@@ -39,7 +39,7 @@ def summary(split):
 
 def rule_table(split):
     """Markdown of the rule sweep (rows "rule" of every HDRI), or "" when it was not measured."""
-    from prt_addon.core import lights as core_lights
+    from prt_addon.core.lights import extraction as core_lights
 
     cells = {}
     for scene, res in split["scenes"].items():

@@ -2,7 +2,7 @@
 and what other constants of the threshold rule would give.
 
 Called by benchmarks/accuracy_split.py: parts() for the HDRIs of its sweep, rule() for every HDRI. At each threshold the image is
-split as api.project_world splits it (core.lights.extract_lights at full resolution), and each
+split as api.project_world splits it (core.lights.extraction.extract_lights at full resolution), and each
 part of api.shade is compared with the brute-force quadrature of that part alone: the SH of the
 residual against the quadrature of the residual image, and the lights (as their samples, and as
 the uniform discs of the moment radius) against the quadrature of their excess texels, every
@@ -14,7 +14,7 @@ import dataclasses
 
 import numpy as np
 
-from prt_addon.core.resample import LUMINANCE as LUMA
+from prt_addon.core.sh.resample import LUMINANCE as LUMA
 
 THRESHOLDS = [0.0, "old", 5.0, 3.0, 2.0]  # 0: automatic; "old": the rule before samples, OLD_RULE
 OLD_RULE = (8.0, 0.01)  # (mean factor, compact fraction)
@@ -26,7 +26,7 @@ def shade_luminance(objs, scene, lights=None):
     """Luminance of api.shade over the objects, with the scene's lights replaced by `lights`
     (image frame, the Mapping rotation still applied) when given."""
     from prt_addon import api
-    from prt_addon.blender.display import lighting
+    from prt_addon.blender.scene import lighting
 
     if lights is not None:
         lighting.set_lights_override(scene, lights)
@@ -38,11 +38,10 @@ def shade_luminance(objs, scene, lights=None):
 
 
 def _lights_only(objs, scene, lights):
-    """Luminance of the lights' term of api.shade alone (display.light_shading)."""
+    """Luminance of the lights' term of api.shade alone (scene.light_shading)."""
     import bpy
 
-    from prt_addon.blender import storage
-    from prt_addon.blender.display import light_shading
+    from prt_addon.blender.scene import light_shading, storage
 
     depsgraph = bpy.context.evaluated_depsgraph_get()
     return (
@@ -57,8 +56,8 @@ def parts(scene, objs, points, rgb, brute_y, orders, brute_force, quadrature_nod
     """Rows per threshold: {"threshold", "lights", "angles_deg", "sky": {order: err},
     "lights_samples": err, "lights_discs": err}, errors relative to the RMS of brute_y."""
     from prt_addon import api
-    from prt_addon.blender.display import lighting
-    from prt_addon.core import lights as core_lights
+    from prt_addon.blender.scene import lighting
+    from prt_addon.core.lights import extraction as core_lights
 
     norm = float(np.sqrt(np.mean(brute_y**2)))
     rows = []
@@ -91,7 +90,7 @@ def rule(scene, objs, rgb, cy, orders):
     """Per (mean factor, compact fraction) of RULES: the threshold auto_threshold would give with
     them, the lights, and api.shade's error against Cycles at each order."""
     from prt_addon import api
-    from prt_addon.core import lights as core_lights
+    from prt_addon.core.lights import extraction as core_lights
 
     rows = []
     for mean_factor, compact in RULES:

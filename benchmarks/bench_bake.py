@@ -26,16 +26,15 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-import bpy  # noqa: E402
-import numpy as np  # noqa: E402
+import bpy
+import numpy as np
 
-import prt_addon  # noqa: E402
-from prt_addon import api  # noqa: E402
-from prt_addon.blender.bake import job as bake_job
-from prt_addon.blender.bake import settings as bake_settings
-from prt_addon.core import mesh as core_mesh
-from prt_addon.blender.bake import scene as bake_scene
-from prt_addon.core import raytrace, transfer  # noqa: E402
+import prt_addon
+from prt_addon import api
+from prt_addon.blender.bake import job as bake_job, settings as bake_settings
+from prt_addon.blender.scene import parts as scene_parts
+from prt_addon.core.trace import raytrace
+from prt_addon.core.transfer import mesh as core_mesh, quadrature as transfer
 
 
 def vm_kib(field):
@@ -62,7 +61,7 @@ def build_scene(subdiv, grid):
 def same_rays(objects, samples):
     """The rays the bake traces (same culling, same order) and the scene's triangles."""
     job = bake_job.BakeJob(objects, bake_settings.BakeSettings(order=4, samples=samples, backend="EMBREE"))
-    parts = bake_scene.scene_parts(bpy.context.evaluated_depsgraph_get())
+    parts = scene_parts.scene_parts(bpy.context.evaluated_depsgraph_get())
     vertices, triangles = core_mesh.concatenate_parts(parts)
     batches = [b for plan in job.plans for b in plan.computation.iter_rays()]
     job.close()
@@ -183,7 +182,7 @@ def throughput(args):
         built_s, built_cpu = np.array([(wall, cpu) for wall, _w, cpu in out["built"]]).T
         rays = report.rays_traced
         assert len(origins) == rays, (len(origins), rays)
-        m = lambda x: rays / np.median(x) / 1e6  # noqa: E731 - Mrays/s at the median time
+        m = lambda x: rays / np.median(x) / 1e6
         print(
             f"rays traced {rays:,}, skipped {report.rays_skipped:,} "
             f"(below horizon {report.skipped_below_horizon:,}, nothing to occlude "

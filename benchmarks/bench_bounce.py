@@ -25,10 +25,11 @@ sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
 
 
-import prt_addon  # noqa: E402
-from prt_addon import api  # noqa: E402
-from prt_addon.core import raytrace  # noqa: E402
-from bench_bake import build_scene, child_line, same_rays, spread, vm_kib, wavy_grid  # noqa: E402
+from bench_bake import build_scene, child_line, same_rays, spread, vm_kib, wavy_grid
+
+import prt_addon
+from prt_addon import api
+from prt_addon.core.trace import raytrace
 
 
 def query_seconds(occ, batches):

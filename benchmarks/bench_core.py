@@ -13,7 +13,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from prt_addon.core import directions, projection, rotation, sh  # noqa: E402
+from prt_addon.core.sh import basis as sh, directions, projection, rotation
 
 
 def median_seconds(fn, repeats):

@@ -19,18 +19,14 @@ import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-import bpy  # noqa: E402
-import gpu  # noqa: E402
-import numpy as np  # noqa: E402
+import bpy
+import gpu
+import numpy as np
 
-import prt_addon  # noqa: E402
-from prt_addon.blender import storage
-from prt_addon.blender.display import colour, gpu_cache
-from prt_addon.blender.display import draw as display_draw
-from prt_addon.blender.display import shader as display_shader
-from prt_addon.blender.display import lighting
-from prt_addon.blender.display import offscreen
-from prt_addon.core import analytic, sh  # noqa: E402
+import prt_addon
+from prt_addon.blender.display import colour, draw as display_draw, gpu_cache, offscreen, shader as display_shader
+from prt_addon.blender.scene import lighting, storage
+from prt_addon.core.sh import analytic, basis as sh
 
 
 def flat_shader():
@@ -123,7 +119,7 @@ def time_frames(scene, obj, mvp, entry, prt_shader, flat, frames, size, lut):
 def rotation_update_cost(order, repeats=50):
     """One lighting-rotation update: rotate the world light by the Mapping rotation, rotate it
     into an object's frame, pack std140 and upload the uniform buffer. No projection, no bake."""
-    from prt_addon.core import rotation
+    from prt_addon.core.sh import rotation
 
     light = analytic.cap_coeffs(order, (1.0, 0.0, 0.0), 0.3, radiance=(5.0, 4.0, 3.0))
     count = storage.attribute_count(order)

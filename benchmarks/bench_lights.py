@@ -16,7 +16,8 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from prt_addon.core import lights, projection  # noqa: E402
+from prt_addon.core.lights import extraction as lights
+from prt_addon.core.sh import projection
 
 
 def timed(fn, repeats):

@@ -7,7 +7,7 @@ One baked UV sphere of N triangles over a baked ground quad, drawn by display.dr
 Per light count two variants: "cached" (the shadow maps are reused) and "map drawn" (every
 frame turns the lights a little, so every map is drawn again: the cost of rotating the HDRI).
 "1 wide light" is a light of 16 samples over a 20 degree cap, drawn from as many maps as the
-triangle budget gives (core.shadow_views) at the wide maps' resolution. All variants are
+triangle budget gives (core.lights.shadow_views) at the wide maps' resolution. All variants are
 interleaved frame by frame; medians. llvmpipe timings are noisy (shared cores).
 """
 
@@ -21,17 +21,17 @@ import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-import bpy  # noqa: E402
-import gpu  # noqa: E402
-import mathutils  # noqa: E402
-import numpy as np  # noqa: E402
+import bpy
+import gpu
+import mathutils
+import numpy as np
+from bench_display import make_sphere, write_transfer
 
-import prt_addon  # noqa: E402
-from bench_display import make_sphere, write_transfer  # noqa: E402
-from prt_addon.blender.display import draw as display_draw  # noqa: E402
-from prt_addon.blender.display import lighting, offscreen, shadows  # noqa: E402
-from prt_addon.core import analytic  # noqa: E402
-from prt_addon.core.lights import Light  # noqa: E402
+import prt_addon
+from prt_addon.blender.display import draw as display_draw, offscreen, shadows
+from prt_addon.blender.scene import lighting
+from prt_addon.core.lights.extraction import Light
+from prt_addon.core.sh import analytic
 
 
 def make_ground():

@@ -15,9 +15,9 @@ import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-import bpy  # noqa: E402
+import bpy
 
-import prt_addon  # noqa: E402
+import prt_addon
 from prt_addon.blender.world import projection as world_projection
 
 ORDERS = (3, 8, 16)

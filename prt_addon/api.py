@@ -12,10 +12,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from .core import projection as _projection
-from .core import rotation as _rotation
-from .core import sh as _sh
-from .core.directions import make_directions  # noqa: F401  (re-exported)
+from .core.sh import basis as _sh, projection as _projection, rotation as _rotation
+from .core.sh.directions import make_directions as make_directions
 
 if TYPE_CHECKING:  # Blender types, only for the annotations
     import bpy
@@ -32,7 +30,7 @@ def project_equirect(pixels: npt.ArrayLike, order: int) -> np.ndarray:
     """(H, W, C) equirectangular image, row 0 at the bottom as Image.pixels -> (order**2, 3).
 
     NaN/Inf values are set to 0 and negative values clamped to 0; use
-    prt_addon.core.projection.project_equirect to also get the counts.
+    prt_addon.core.sh.projection.project_equirect to also get the counts.
     """
     coeffs, _report = _projection.project_equirect(pixels, order)
     return coeffs
@@ -85,7 +83,7 @@ def world_lights(scene: bpy.types.Scene | None = None) -> list[dict[str, Any]]:
     colour world, no bright source). The shading uses the samples when there are some."""
     import bpy
 
-    from .blender.display import lighting as _lighting
+    from .blender.scene import lighting as _lighting
 
     lights = _lighting.world_lights(bpy.context.scene if scene is None else scene)
     return [
@@ -117,7 +115,7 @@ def shade(obj: bpy.types.Object, scene: bpy.types.Scene | None = None) -> np.nda
     rays from the element see unoccluded by the scene's visible meshes. One row per vertex for a
     POINT-domain bake (per face corner for CORNER), the quantity Cycles' DIFFUSE bake with
     pass_filter={'DIRECT'} writes."""
-    from .blender.display import lighting as _lighting
+    from .blender.scene import lighting as _lighting
 
     return _lighting.shade(obj, scene)
 

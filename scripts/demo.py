@@ -29,8 +29,8 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-from prt_addon.core import analytic, directions, projection, sh  # noqa: E402
-from prt_addon.core.resample import LUMINANCE  # noqa: E402
+from prt_addon.core.sh import analytic, basis as sh, directions, projection
+from prt_addon.core.sh.resample import LUMINANCE
 
 
 def bundled_hdri_path(name):

@@ -18,7 +18,7 @@ import traceback
 import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import real_blender_colour  # noqa: E402  (next to this file)
+import real_blender_colour
 
 # Every check, in order; real_blender_check.sh reads it from the source (all fail without a result or set-up).
 CHECKS = (
@@ -94,7 +94,7 @@ def mesh_prt_bytes(mesh_name):
 
 
 def light_directions():
-    return [light.direction.tolist() for light in mod("blender.display.lighting").world_lights(bpy.context.scene)]
+    return [light.direction.tolist() for light in mod("blender.scene.lighting").world_lights(bpy.context.scene)]
 
 
 def bake_threads():
@@ -106,13 +106,13 @@ def install():
     import importlib
 
     try:
-        import numpy  # noqa: F401  (Debian's Blender only recommends python3-numpy)
+        import numpy  # noqa: F401
     except ImportError as e:
         raise SetupError(f"Blender's Python has no numpy: {e}") from e
     try:
         install_files = bpy.ops.extensions.package_install_files
         result["install"] = list(install_files(filepath=ZIP, repo="user_default", enable_on_install=True))
-    except Exception as e:  # noqa: BLE001  (an operator's error report arrives as RuntimeError)
+    except Exception as e:
         raise SetupError(f"installing {os.path.basename(ZIP)} failed: {e}".strip()) from e
     if result["install"] != ["FINISHED"]:
         raise SetupError(f"installing {os.path.basename(ZIP)} returned {result['install']}")
@@ -124,8 +124,8 @@ def install():
         why = f"{type(errors[0]).__name__}: {errors[0]}" if errors else f"{MODULE} is not in the add-ons"
         raise SetupError(f"package_install_files returned FINISHED, but the extension did not enable ({why})")
     try:
-        importlib.import_module(f"{MODULE}.prt_addon.core.raytrace")
-    except Exception as e:  # noqa: BLE001
+        importlib.import_module(f"{MODULE}.prt_addon.core.trace.raytrace")
+    except Exception as e:
         raise SetupError(f"the enabled extension does not import: {type(e).__name__}: {e}") from e
     result["enabled"] = True
 
@@ -134,7 +134,7 @@ def setup():
     import numpy as np
 
     install()
-    raytrace, buffers = mod("core.raytrace"), mod("core.embree_buffers")
+    raytrace, buffers = mod("core.trace.raytrace"), mod("core.trace.embree_buffers")
     result["embree_available"] = bool(raytrace.EMBREE_AVAILABLE)
     result["embree_import_error"] = str(getattr(raytrace, "EMBREE_IMPORT_ERROR", ""))
     if raytrace.EMBREE_AVAILABLE:
@@ -196,7 +196,7 @@ def tick():
         return step()
     except SetupError as e:
         result["setup_error"] = str(e)
-    except Exception:  # noqa: BLE001
+    except Exception:
         result["exception"] = traceback.format_exc()
     finish()
     return None

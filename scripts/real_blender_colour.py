@@ -62,7 +62,7 @@ def screen_against_offscreen(out, mod, ctx, folder):
     import gpu
     import numpy as np
 
-    colour, draw, lighting = mod("blender.display.colour"), mod("blender.display.draw"), mod("blender.display.lighting")
+    colour, draw, lighting = mod("blender.display.colour"), mod("blender.display.draw"), mod("blender.scene.lighting")
     scene, area, region, window = bpy.context.scene, ctx["area"], ctx["region"], ctx["window"]
     path = os.path.join(folder, "screen.png")  # the X screen as the user sees it (Blender's own
     subprocess.run(["import", "-display", os.environ.get("DISPLAY", ":99"), "-window", "root", path], check=True)
@@ -251,7 +251,7 @@ def run(result, mod, ctx):
     ):
         try:
             step()
-        except Exception:  # noqa: BLE001
+        except Exception:
             out.setdefault("errors", []).append(traceback.format_exc())
 
 

@@ -124,7 +124,7 @@ def main(zip_path, result_path, mode="embree"):
     result["panel"] = hasattr(bpy.types, "VIEW3D_PT_prt")
 
     api = __import__(MODULE + ".prt_addon.api", fromlist=["api"])
-    raytrace = sys.modules[MODULE + ".prt_addon.core.raytrace"]
+    raytrace = sys.modules[MODULE + ".prt_addon.core.trace.raytrace"]
     result["embree_available"] = bool(raytrace.EMBREE_AVAILABLE)
     result["basis_north_pole"] = api.sh_basis(np.array([[0.0, 0.0, 1.0]]), 2)[0].tolist()
 

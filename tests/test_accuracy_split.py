@@ -1,12 +1,12 @@
 """The accuracy report's brute-force reference (benchmarks/accuracy_split.py) against closed forms:
 its nodes keep the image's power, and a point under a uniform sky, a sun or half a sky gets the
-exact E/pi. Pure numpy: the occluders are stand-ins of the core.raytrace protocol."""
+exact E/pi. Pure numpy: the occluders are stand-ins of the core.trace.raytrace protocol."""
 
 import numpy as np
 import pytest
 
 from benchmarks.accuracy_split import brute_force, pack, quadrature_nodes, unpack
-from prt_addon.core.projection import pixel_directions, pixel_solid_angles
+from prt_addon.core.sh.projection import pixel_directions, pixel_solid_angles
 
 HEIGHT, WIDTH = 128, 256
 

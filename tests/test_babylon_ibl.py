@@ -54,7 +54,7 @@ def exported(bpy_module, addon, tmp_path_factory):
     from prt_addon import api
     from prt_addon.blender.export import gltf
     from prt_addon.blender.world import nodes
-    from prt_addon.core import projection
+    from prt_addon.core.sh import projection
 
     bpy = bpy_module
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -92,7 +92,7 @@ def exported(bpy_module, addon, tmp_path_factory):
 
 def api_mips(scene):
     from prt_addon.blender.export import ibl
-    from prt_addon.core import rgbd_png
+    from prt_addon.core.ibl import rgbd_png
 
     return [rgbd_png.rgbd_decode(rgbd_png.rgbd_encode(m)) for m in ibl.specular_mips(scene, SIZE)]
 
@@ -133,7 +133,7 @@ def _shader_irradiance(texture, g):
 def _texel_dirs_gltf(size, rng, count):
     """`count` random texel centres of a mip of `size`: (face, row, col) and their glTF directions."""
     from prt_addon.blender.export import ibl
-    from prt_addon.core import prefilter
+    from prt_addon.core.ibl import prefilter
 
     dirs = prefilter.face_directions(size).reshape(-1, 3)
     pick = rng.choice(dirs.shape[0], size=min(count, dirs.shape[0]), replace=False)
@@ -147,7 +147,7 @@ def test_babylon_reads_our_environment(exported, tools, tmp_path, capsys):
     right directions (and not the mirrored ones), its other mips our prefiltered texels, and a
     mirror sphere reflects the bright spot where the world has it."""
     from prt_addon.blender.export import glb, ibl
-    from prt_addon.core import sh
+    from prt_addon.core.sh import basis as sh
 
     rng = np.random.default_rng(5)
     document, _chunks = glb.read(exported["path"])
@@ -158,10 +158,10 @@ def test_babylon_reads_our_environment(exported, tools, tmp_path, capsys):
     lods = list(range(1, SIZE.bit_length()))
     texels = {k: _texel_dirs_gltf(SIZE >> k, rng, 300) for k in lods}
     axis, _colour, _width = BLOBS[0]
+    import bpy
+
     from prt_addon.blender.export.gltf import BLENDER_TO_GLTF
     from prt_addon.blender.world import nodes
-
-    import bpy
 
     q = nodes.live_sh_rotation(bpy.context.scene.world)
     spot = BLENDER_TO_GLTF @ q @ (axis / np.linalg.norm(axis))  # the blob in glTF's world
@@ -179,8 +179,11 @@ def test_babylon_reads_our_environment(exported, tools, tmp_path, capsys):
     }
     summary = _run(tools, job, tmp_path)
     texture = summary["texture"]
-    assert texture["size"] == SIZE and texture["level"] == 1.0 and not texture["useRightHandedSystem"]
-    assert texture["lodGenerationScale"] == pytest.approx(1.0) and texture["lodGenerationOffset"] == 0.0
+    assert texture["size"] == SIZE
+    assert texture["level"] == 1.0
+    assert not texture["useRightHandedSystem"]
+    assert texture["lodGenerationScale"] == pytest.approx(1.0)
+    assert texture["lodGenerationOffset"] == 0.0
     assert np.allclose(np.array(texture["reflectionMatrix"]).reshape(4, 4), np.eye(4))
     figures = {}
 
@@ -226,7 +229,7 @@ def test_babylon_reads_our_environment(exported, tools, tmp_path, capsys):
     # the reflected direction by an independent quadrature. Checked where the spot is, where the
     # mip's data dominates; the dim directions come out 0.02-0.04 brighter than this model.
     rough = np.array(summary["mirrors"][1])[:, :3] / 255.0
-    from prt_addon.core import directions
+    from prt_addon.core.sh import directions
 
     points = directions.fibonacci_directions(200_000)
     values = exported["radiance"](points)

@@ -20,7 +20,6 @@ import types
 
 import numpy as np
 import pytest
-
 from conftest import bundled_hdri_path
 
 pytestmark = pytest.mark.blender

@@ -8,10 +8,8 @@ operator instance, as in tests/test_bake_job.py.
 import types
 
 import pytest
-
 from conftest import ModalStandIn, fake_event
-from test_bad_input import assert_unchanged, bake, refused, select_only, snapshot
-from test_bad_input import _no_bake_left_running, scene  # noqa: F401 (fixtures)
+from test_bad_input import _no_bake_left_running, assert_unchanged, bake, refused, scene, select_only, snapshot  # noqa: F401
 
 pytestmark = pytest.mark.blender
 
@@ -40,7 +38,7 @@ def test_zero_samples(bpy_module, scene):  # noqa: F811
 
 
 def test_embree_requested_where_missing(bpy_module, scene, monkeypatch):  # noqa: F811
-    from prt_addon.core import raytrace
+    from prt_addon.core.trace import raytrace
 
     monkeypatch.setattr(raytrace, "EMBREE_AVAILABLE", False)
     monkeypatch.setattr(raytrace, "EMBREE_IMPORT_ERROR", "ImportError: No module named 'embreex'")
@@ -62,9 +60,7 @@ def _timer_event():
 
 
 def _start_modal(bpy, scene_ns, monkeypatch):
-    from prt_addon.blender.bake import job as bake_job
-    from prt_addon.blender.bake import settings as bake_settings
-    from prt_addon.blender.bake import runner as bake_runner
+    from prt_addon.blender.bake import job as bake_job, runner as bake_runner, settings as bake_settings
     from prt_addon.blender.ops import bake as bake_op
 
     monkeypatch.setattr(bake_runner, "TIME_SLICE", 0.0)
@@ -82,10 +78,8 @@ def _start_modal(bpy, scene_ns, monkeypatch):
 def test_invoke_failing_after_the_job_starts_stops_it(bpy_module, scene, monkeypatch):  # noqa: F811
     """invoke() creates the job (whose first slices start tracing at once), then adds the timer
     and the modal handler: if that fails, the job's threads are stopped and nothing is kept."""
-    from prt_addon.blender.bake import job as bake_job
-    from prt_addon.blender.bake import settings as bake_settings
+    from prt_addon.blender.bake import job as bake_job, runner as bake_runner, settings as bake_settings
     from prt_addon.blender.ops import bake as bake_op
-    from prt_addon.blender.bake import runner as bake_runner
 
     bpy = bpy_module
 
@@ -119,7 +113,8 @@ def test_invoke_failing_after_the_job_starts_stops_it(bpy_module, scene, monkeyp
     with pytest.raises(RuntimeError, match="no timer"):
         cls.invoke(op, context, None)
     assert op not in bake_runner._running
-    assert job._pool._shutdown and all(not t.is_alive() for t in job._pool._threads)
+    assert job._pool._shutdown
+    assert all(not t.is_alive() for t in job._pool._threads)
     assert_unchanged(before, snapshot(bpy))
 
 
@@ -141,8 +136,9 @@ def test_bake_while_another_bake_runs(bpy_module, scene, monkeypatch):  # noqa: 
 
 
 def test_topology_change_during_modal_bake(bpy_module, scene, monkeypatch):  # noqa: F811
-    from prt_addon.blender.bake import runner as bake_runner
     import bmesh
+
+    from prt_addon.blender.bake import runner as bake_runner
 
     bpy = bpy_module
     bake_ops, op = _start_modal(bpy, scene, monkeypatch)
@@ -167,9 +163,7 @@ def test_topology_change_during_modal_bake(bpy_module, scene, monkeypatch):  # n
 
 
 def test_unregister_in_the_middle_of_a_modal_bake(bpy_module, scene, monkeypatch):  # noqa: F811
-    from prt_addon.blender.bake import job as bake_job
-    from prt_addon.blender.bake import runner as bake_runner
-    from prt_addon.blender.bake import settings as bake_settings
+    from prt_addon.blender.bake import job as bake_job, runner as bake_runner, settings as bake_settings
 
     bpy = bpy_module
     import prt_addon
@@ -188,7 +182,8 @@ def test_unregister_in_the_middle_of_a_modal_bake(bpy_module, scene, monkeypatch
     prt_addon.unregister()  # the user disables the add-on while it bakes
     try:
         assert op._timer is None, "the bake's timer was not removed"
-        assert not bake_runner._running and job._cancel
+        assert not bake_runner._running
+        assert job._cancel
         assert job._pool._shutdown, "the bake's worker threads were not stopped"
         assert pending_job._cancel
         assert pending_job._pool._shutdown, "the pending bake's worker threads were not stopped"

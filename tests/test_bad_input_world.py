@@ -4,9 +4,7 @@ The snapshot helpers and the baked scene are in test_bad_input.py.
 """
 
 import pytest
-
-from test_bad_input import refused
-from test_bad_input import _no_bake_left_running, scene  # noqa: F401 (fixtures)
+from test_bad_input import _no_bake_left_running, refused, scene  # noqa: F401
 
 pytestmark = pytest.mark.blender
 

@@ -11,7 +11,7 @@ import pytest
 
 pytestmark = pytest.mark.blender
 
-from prt_addon.core import analytic, transfer  # noqa: E402
+from prt_addon.core.sh import analytic, frames
 
 
 @pytest.fixture
@@ -23,7 +23,7 @@ def bake_ops(addon):
 
 @pytest.fixture
 def mesh_io(addon):
-    from prt_addon.blender import mesh_read
+    from prt_addon.blender.scene import mesh_read
 
     return mesh_read
 
@@ -60,7 +60,7 @@ def _scale_scene(bpy, factor):
 
 
 def test_operator_bakes_selection_and_writes_storage(empty_scene, bpy_module, mesh_io):
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     bpy = bpy_module
     ground, monkey = _monkey_on_ground(bpy)
@@ -70,19 +70,27 @@ def test_operator_bakes_selection_and_writes_storage(empty_scene, bpy_module, me
     settings.order, settings.samples = 3, 64
     assert bpy.ops.prt.bake_transfer() == {"FINISHED"}
     record = monkey.data["prt_bake"]
-    assert record["order"] == 3 and record["count"] == 3 and record["domain"] == "POINT"
-    assert record["backend"] in ("EMBREE", "BVHTREE") and record["rays_traced"] > 0
+    assert record["order"] == 3
+    assert record["count"] == 3
+    assert record["domain"] == "POINT"
+    assert record["backend"] in ("EMBREE", "BVHTREE")
+    assert record["rays_traced"] > 0
     for k in range(3):
         attr = monkey.data.attributes[f"prt_t{k:02d}"]
-        assert attr.data_type == "FLOAT_COLOR" and attr.domain == "POINT"
+        assert attr.data_type == "FLOAT_COLOR"
+        assert attr.domain == "POINT"
     values = storage.read_transfer(monkey.data)
-    assert values.shape == (len(monkey.data.vertices), 9) and np.isfinite(values).all()
+    assert values.shape == (len(monkey.data.vertices), 9)
+    assert np.isfinite(values).all()
     report = json.loads(settings.last_report)
-    assert report["ok"] and report["rays_traced"] > 0 and report["error_estimate"] > 0
+    assert report["ok"]
+    assert report["rays_traced"] > 0
+    assert report["error_estimate"] > 0
     assert set(report["objects"]) == {ground.name, monkey.name}
     from prt_addon import api
 
-    assert api.bake_status(monkey) == "fresh" and api.bake_status(ground) == "fresh"
+    assert api.bake_status(monkey) == "fresh"
+    assert api.bake_status(ground) == "fresh"
     # Lower order: the extra attributes go; higher again: they come back.
     api.bake([monkey], order=2, samples=32)
     assert monkey.data["prt_bake"]["count"] == 1
@@ -106,7 +114,7 @@ def test_loose_vertices_do_not_fool_the_per_vertex_shortcut(empty_scene, bpy_mod
     """Two flat triangles folded along an edge (its 2 vertices have 2 normals each) plus 2 loose
     vertices: 6 (vertex, normal) pairs for 6 vertices, but not one normal per vertex. It must bake
     per corner, each corner holding the clamped cosine of its own face's normal."""
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     bpy = bpy_module
     mesh = bpy.data.meshes.new("fold")
@@ -130,8 +138,7 @@ def test_loose_vertices_do_not_fool_the_per_vertex_shortcut(empty_scene, bpy_mod
 def test_unoccluded_vertex_is_clamped_cosine_in_local_frame(empty_scene, bpy_module, mesh_io):
     """A lone convex object: no rays at all, and each vertex stores the clamped cosine of its
     local normal (the local frame undoes the object's rotation and scale)."""
-    from prt_addon.blender import mesh_read
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import mesh_read, storage
 
     bpy = bpy_module
     bpy.ops.mesh.primitive_uv_sphere_add(segments=12, ring_count=6, rotation=(0.3, 0.5, 0.7), scale=(1, 2, 0.5))
@@ -140,14 +147,15 @@ def test_unoccluded_vertex_is_clamped_cosine_in_local_frame(empty_scene, bpy_mod
     from prt_addon import api
 
     report = api.bake([sphere], order=3, samples=2048)
-    assert report.rays_traced == 0 and report.backend == "NONE"
+    assert report.rays_traced == 0
+    assert report.backend == "NONE"
     assert report.skipped_unoccludable > 0
     normals = mesh_read.read_vertex_normals(sphere.data).astype(np.float64)
     # Normals in the local frame: world normal (inverse transpose) rotated back by R^-1.
     m = np.array(sphere.matrix_world)[:3, :3]
     world = normals @ np.linalg.inv(m)
     world /= np.linalg.norm(world, axis=1, keepdims=True)
-    r, _ = transfer.frame_rotation(m)
+    r, _ = frames.frame_rotation(m)
     local = world @ r
     values = storage.read_transfer(sphere.data)
     expected = np.array([analytic.clamped_cosine_coeffs(3, n) for n in local])
@@ -155,7 +163,7 @@ def test_unoccluded_vertex_is_clamped_cosine_in_local_frame(empty_scene, bpy_mod
 
 
 def test_coarse_smooth_mesh_does_not_shadow_itself(empty_scene, bpy_module, mesh_io):
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     bpy = bpy_module
     bpy.ops.mesh.primitive_uv_sphere_add(segments=8, ring_count=4)
@@ -171,7 +179,7 @@ def test_coarse_smooth_mesh_does_not_shadow_itself(empty_scene, bpy_module, mesh
 
 
 def _scene_values(bpy, mesh_io, factor):
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     ground, monkey = _monkey_on_ground(bpy, ground_cuts=6)
@@ -204,7 +212,8 @@ def test_lone_convex_object_traces_nothing_and_ground_contact_does(empty_scene, 
     bpy.ops.mesh.primitive_cube_add(location=(0, 0, 1))
     cube = bpy.context.object
     report = api.bake([cube], order=2, samples=64)
-    assert report.rays_traced == 0 and report.backend == "NONE"
+    assert report.rays_traced == 0
+    assert report.backend == "NONE"
     assert report.points == 24  # flat cube: 8 vertices x 3 face normals
     assert report.rays_skipped == 64 * report.points
     assert report.skipped_below_horizon + report.skipped_unoccludable == report.rays_skipped
@@ -215,5 +224,6 @@ def test_lone_convex_object_traces_nothing_and_ground_contact_does(empty_scene, 
     # The 4 corners of the top face see nothing above their tangent plane (the plane is below,
     # the cube convex), nor do the 4 of the bottom face (it lies on the plane and faces down):
     # their ~32 rays each above the horizon are skipped; the sides and the plane are traced.
-    assert report.rays_traced > 0 and report.backend in ("EMBREE", "BVHTREE")
+    assert report.rays_traced > 0
+    assert report.backend in ("EMBREE", "BVHTREE")
     assert 8 * 28 <= report.skipped_unoccludable <= 8 * 36

@@ -8,22 +8,22 @@ import pytest
 
 pytestmark = pytest.mark.blender
 
-from conftest import ModalStandIn, fake_event, ticks_of_other_threads_after  # noqa: E402
-from prt_addon.core import raytrace  # noqa: E402
-from test_bake import _attr_bytes, _monkey_on_ground  # noqa: E402
-from test_bake import bake_ops, mesh_io  # noqa: E402, F401 (fixtures)
+from conftest import ModalStandIn, fake_event, ticks_of_other_threads_after
+from test_bake import _attr_bytes, _monkey_on_ground, bake_ops, mesh_io  # noqa: F401
+
+from prt_addon.core.trace import raytrace
 
 
 def _parity_rays(bake_ops, objects, samples):  # noqa: F811
-    from prt_addon.blender.bake import job as bake_job
-    from prt_addon.blender.bake import scene as bake_scene
-    from prt_addon.blender.bake import settings as bake_settings
-    from prt_addon.core import mesh as core_mesh
     import bpy
+
+    from prt_addon.blender.bake import job as bake_job, settings as bake_settings
+    from prt_addon.blender.scene import parts as scene_parts
+    from prt_addon.core.transfer import mesh as core_mesh
 
     job = bake_job.BakeJob(objects, bake_settings.BakeSettings(order=2, samples=samples, backend="EMBREE"))
     try:
-        parts = bake_scene.scene_parts(bpy.context.evaluated_depsgraph_get())
+        parts = scene_parts.scene_parts(bpy.context.evaluated_depsgraph_get())
         vertices, triangles = core_mesh.concatenate_parts(parts)
         origins, dirs = [], []
         for plan in job.plans:
@@ -32,25 +32,26 @@ def _parity_rays(bake_ops, objects, samples):  # noqa: F811
                 dirs.append(d)
     finally:
         job.close()  # its first slices were already tracing: stop them and their threads
-    assert job._pool._shutdown and all(not t.is_alive() for t in job._pool._threads)
+    assert job._pool._shutdown
+    assert all(not t.is_alive() for t in job._pool._threads)
     return vertices, triangles, np.concatenate(origins), np.concatenate(dirs)
 
 
 @pytest.mark.skipif(not raytrace.EMBREE_AVAILABLE, reason="embreex not installed")
 def test_embree_and_bvhtree_agree_on_the_same_rays(empty_scene, bpy_module, bake_ops):  # noqa: F811
-    from prt_addon.blender.bvh_backend import BVHTreeOccluder
+    from prt_addon.blender.scene.occluders import BVHTreeOccluder
 
     ground, monkey = _monkey_on_ground(bpy_module)
     vertices, triangles, origins, dirs = _parity_rays(bake_ops, [monkey, ground], 128)
     embree = raytrace.EmbreeOccluder(vertices, triangles).occluded(origins, dirs)
     bvh = BVHTreeOccluder(vertices, triangles).occluded(origins, dirs)
     agreement = np.mean(embree == bvh)
-    assert len(origins) > 20000 and 0.05 < embree.mean() < 0.95
+    assert len(origins) > 20000
+    assert 0.05 < embree.mean() < 0.95
     assert agreement >= 0.999, agreement
     # And whole bakes agree.
     from prt_addon import api
-
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     r1 = api.bake([monkey], order=3, samples=64, backend="EMBREE")
     a = storage.read_transfer(monkey.data)
@@ -62,10 +63,12 @@ def test_embree_and_bvhtree_agree_on_the_same_rays(empty_scene, bpy_module, bake
 
 
 def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, bpy_module, bake_ops, monkeypatch):  # noqa: F811
-    from prt_addon.blender.bake import runner as bake_runner
-    from prt_addon.blender.bake import job as bake_job
-    from prt_addon.blender.bake import reports as bake_reports
-    from prt_addon.blender.bake import settings as bake_settings
+    from prt_addon.blender.bake import (
+        job as bake_job,
+        reports as bake_reports,
+        runner as bake_runner,
+        settings as bake_settings,
+    )
 
     monkeypatch.setattr(bake_runner, "TIME_SLICE", 0.0)  # one chunk per timer event
     monkeypatch.setattr(bake_runner, "TIMER_GAP", 0.0)  # (tested on its own below)
@@ -84,7 +87,8 @@ def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, 
     assert op.modal(bpy.context, timer) == {"RUNNING_MODAL"}
     assert 0 < job.fraction < 1
     assert op.modal(bpy.context, fake_event("ESC")) == {"CANCELLED"}
-    assert job._pool._shutdown and all(not t.is_alive() for t in job._pool._threads)
+    assert job._pool._shutdown
+    assert all(not t.is_alive() for t in job._pool._threads)
     assert "cancelled" in bake_reports.last_report(empty_scene)["message"]
     assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
     # The modal path also finishes a bake.
@@ -92,16 +96,15 @@ def test_cancel_through_the_modal_path_leaves_attributes_untouched(empty_scene, 
     result = {"RUNNING_MODAL"}
     while result == {"RUNNING_MODAL"}:
         result = op.modal(bpy.context, timer)
-    assert result == {"FINISHED"} and monkey.data["prt_bake"]["order"] == 2
+    assert result == {"FINISHED"}
+    assert monkey.data["prt_bake"]["order"] == 2
 
 
 def test_timer_events_right_after_a_slice_do_no_work(empty_scene, bpy_module, bake_ops, monkeypatch):  # noqa: F811
     """Blender's events do not say which timer fired, so any TIMER event can run a slice; one that
     comes within TIMER_GAP of the end of the previous slice (another add-on's timer) does none,
     so the UI gets its turn between slices."""
-    from prt_addon.blender.bake import job as bake_job
-    from prt_addon.blender.bake import runner as bake_runner
-    from prt_addon.blender.bake import settings as bake_settings
+    from prt_addon.blender.bake import job as bake_job, runner as bake_runner, settings as bake_settings
 
     monkeypatch.setattr(bake_runner, "TIME_SLICE", 0.0)
     bpy = bpy_module
@@ -126,15 +129,16 @@ def test_scene_bvh_is_built_only_when_a_ray_can_be_traced(empty_scene, bpy_modul
     """A lone convex object traces nothing, so its job never builds the scene's BVH (the
     background build starts only when some object can trace); Suzanne can shadow itself, so
     hers is built. A job closed before its first step leaves no worker thread behind."""
-    from prt_addon.blender.bake import job as bake_job
-    from prt_addon.blender.bake import settings as bake_settings
+    from prt_addon.blender.bake import job as bake_job, settings as bake_settings
 
     bpy = bpy_module
     bpy.ops.mesh.primitive_uv_sphere_add(segments=16, ring_count=8)
     sphere = bpy.context.object
     job = bake_job.BakeJob([sphere], bake_settings.BakeSettings(order=2, samples=64, backend="EMBREE"))
     report = job.run()
-    assert report.rays_traced == 0 and job._occluder is not None and not job._occluder.built
+    assert report.rays_traced == 0
+    assert job._occluder is not None
+    assert not job._occluder.built
 
     bpy.ops.object.select_all(action="DESELECT")
     sphere.hide_set(True)
@@ -142,21 +146,22 @@ def test_scene_bvh_is_built_only_when_a_ray_can_be_traced(empty_scene, bpy_modul
     monkey = bpy.context.object
     job = bake_job.BakeJob([monkey], bake_settings.BakeSettings(order=2, samples=64, backend="EMBREE"))
     report = job.run()
-    assert report.rays_traced > 0 and job._occluder.built
+    assert report.rays_traced > 0
+    assert job._occluder.built
 
     job = bake_job.BakeJob([monkey], bake_settings.BakeSettings(order=2, samples=64, backend="EMBREE"))
     job.steps().close()  # a generator closed before its first step runs no clean-up of its own
     job.close()  # what the operator's clean-up does
-    assert job._pool._shutdown and all(not t.is_alive() for t in job._pool._threads)
+    assert job._pool._shutdown
+    assert all(not t.is_alive() for t in job._pool._threads)
 
 
 def test_first_object_traces_while_the_others_are_prepared(empty_scene, bpy_module, bake_ops, mesh_io, monkeypatch):  # noqa: F811
     """The job queues the first object's slices as soon as its points are ready: one of them is
     traced while the second object's points are still being read. A failure there stops them and
     leaves no thread behind."""
-    from prt_addon.blender.bake import job as bake_job
-    from prt_addon.blender.bake import settings as bake_settings
-    from prt_addon.blender import mesh_read
+    from prt_addon.blender.bake import job as bake_job, settings as bake_settings
+    from prt_addon.blender.scene import mesh_read
 
     bpy = bpy_module
     ground, monkey = _monkey_on_ground(bpy)
@@ -178,7 +183,8 @@ def test_first_object_traces_while_the_others_are_prepared(empty_scene, bpy_modu
     monkeypatch.setattr(mesh_read, "bake_points", points)
     settings = bake_settings.BakeSettings(order=3, samples=64, backend="EMBREE", threads=2)
     job = bake_job.BakeJob([monkey, ground], settings)
-    assert len(started) == 1 and seen == [True]
+    assert len(started) == 1
+    assert seen == [True]
     report = job.run()
     assert report.rays_traced > 0
 
@@ -196,13 +202,15 @@ def test_first_object_traces_while_the_others_are_prepared(empty_scene, bpy_modu
     )
     with pytest.raises(RuntimeError, match="injected"):
         bake_job.BakeJob([monkey, ground], settings)
-    assert started and pools[0]._shutdown and all(not t.is_alive() for t in pools[0]._threads)
+    assert started
+    assert pools[0]._shutdown
+    assert all(not t.is_alive() for t in pools[0]._threads)
     assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
 
 
 def test_failing_bake_leaves_attributes_untouched(empty_scene, bpy_module, bake_ops, mesh_io, monkeypatch):  # noqa: F811
     from prt_addon.blender.bake import reports as bake_reports
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     bpy = bpy_module
     ground, monkey = _monkey_on_ground(bpy)
@@ -249,8 +257,7 @@ def test_failing_bake_leaves_attributes_untouched(empty_scene, bpy_module, bake_
 def test_bake_set_up_leaves_no_blas_thread_spinning(empty_scene, bpy_module, bake_ops):  # noqa: F811
     """Reading and transforming ~32k vertices (rotated and scaled) must not wake numpy's BLAS
     threads, whose spinning would take a core from the tracing threads (core.serial_blas)."""
-    from prt_addon.blender.bake import job as bake_job
-    from prt_addon.blender.bake import settings as bake_settings
+    from prt_addon.blender.bake import job as bake_job, settings as bake_settings
 
     bpy = bpy_module
     bpy.ops.mesh.primitive_monkey_add(rotation=(0.3, 0.2, 0.1), scale=(1, 2, 3))

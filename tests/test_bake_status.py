@@ -4,7 +4,7 @@ import pytest
 
 pytestmark = pytest.mark.blender
 
-from test_bake import bake_ops, mesh_io  # noqa: E402, F401 (fixtures)
+from test_bake import bake_ops, mesh_io  # noqa: F401
 
 
 def test_topology_edit_is_stale(empty_scene, bpy_module):
@@ -33,7 +33,8 @@ def test_topology_edit_is_stale(empty_scene, bpy_module):
     bm.to_mesh(obj.data)
     bm.free()
     state, reason = api.bake_status(obj, reason=True)
-    assert state == "stale" and "topology" in reason
+    assert state == "stale"
+    assert "topology" in reason
     api.bake([obj], order=2, samples=32)
     assert api.bake_status(obj) == "fresh"
     bm = bmesh.new()
@@ -52,20 +53,23 @@ def test_removed_or_converted_transfer_attribute_is_reported(empty_scene, bpy_mo
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2)
     obj = bpy.context.object
     from prt_addon import api
-    from prt_addon.blender import storage
     from prt_addon.blender.display import gpu_cache
+    from prt_addon.blender.scene import storage
 
     api.bake([obj], order=3, samples=32, shadows=False)  # 9 coefficients: prt_t00 .. prt_t02
     assert api.bake_status(obj) == "fresh"
     info, problem = storage.usable_bake(obj.data)
-    assert info.order == 3 and info.count == 3 and problem == ""
+    assert info.order == 3
+    assert info.count == 3
+    assert problem == ""
     elements = len(obj.data.loops) if info.domain == "CORNER" else len(obj.data.vertices)
     assert gpu_cache.read_transfer(obj.data, info).shape == (elements, 12)
     assert storage.read_transfer(obj.data).shape == (elements, 9)
 
     obj.data.attributes.remove(obj.data.attributes["prt_t01"])
     state, reason = api.bake_status(obj, reason=True)
-    assert state == "stale" and "prt_t01" in reason
+    assert state == "stale"
+    assert "prt_t01" in reason
     assert storage.usable_bake(obj.data) == (None, "attribute prt_t01 is missing or changed")
     assert storage.read_transfer(obj.data) is None
 
@@ -129,7 +133,8 @@ def test_modifiers_deform_is_used_topology_change_is_refused(empty_scene, bpy_mo
     wave.height, wave.width, wave.narrowness = 0.5, 0.5, 0.5
     report = api.bake([grid], order=2, samples=64)
     # The flat base mesh cannot shadow itself; the curved one (what the user sees) can.
-    assert report.rays_traced > 0 and report.objects == [grid.name]
+    assert report.rays_traced > 0
+    assert report.objects == [grid.name]
     grid.modifiers.new("Subdivision", "SUBSURF")
     with pytest.raises(ValueError, match="Apply"):
         api.bake([grid], order=2, samples=16)

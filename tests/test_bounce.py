@@ -5,8 +5,9 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from prt_addon.core import bounce, raytrace, transfer
-from prt_addon.core.directions import make_directions
+from prt_addon.core.sh.directions import make_directions
+from prt_addon.core.trace import raytrace
+from prt_addon.core.transfer import bounce, bounce_hits, quadrature as transfer
 
 pytestmark = pytest.mark.skipif(not raytrace.EMBREE_AVAILABLE, reason="embreex not available")
 
@@ -49,7 +50,7 @@ def bake_sphere(albedo, bounces, samples=512, order=2, inward=True, kind="FIBONA
     normals = -v.astype(np.float64)  # inward
     dirs = make_directions(kind, samples, 0)
     occ = raytrace.EmbreeOccluder(v, t)
-    sink = bounce.HitTransport(
+    sink = bounce_hits.HitTransport(
         v, t, t, np.broadcast_to(np.asarray(albedo, float), (len(t), np.size(albedo))), len(dirs.directions)
     )
     comp = transfer.TransferComputation(v, normals, dirs, order, occ, offset=1e-4, hit_sink=sink, threads=2)
@@ -138,7 +139,7 @@ def test_hits_do_not_depend_on_threads_or_slices():
     dirs = make_directions("FIBONACCI", 128, 0)
     results = []
     for threads, chunk in ((1, 1 << 18), (2, 5000)):
-        sink = bounce.HitTransport(v, t, t, 0.5, len(dirs.directions))
+        sink = bounce_hits.HitTransport(v, t, t, 0.5, len(dirs.directions))
         comp = transfer.TransferComputation(
             v,
             -v.astype(np.float64),
@@ -162,9 +163,9 @@ def test_nearest_triangles_and_barycentrics_locate_the_hit():
     dirs = np.array([[0, 0, 1], [0, 0, 1], [0, 0, -1]], np.float32)
     prims = occ.nearest_triangles(origins, dirs)
     assert list(prims) == [1, -1, 0]  # the nearer of two stacked triangles, from either side
-    sink = bounce.HitTransport(v, [[3, 4, 5], [0, 1, 2]], [[0, 1, 2]] * 2, 1.0, 1)
+    sink = bounce_hits.HitTransport(v, [[3, 4, 5], [0, 1, 2]], [[0, 1, 2]] * 2, 1.0, 1)
     hit = prims >= 0
-    ud, wd, det = bounce.hit_barycentrics(sink.corners[prims[hit]], origins[hit], dirs[hit])
+    ud, wd, det = bounce_hits.hit_barycentrics(sink.corners[prims[hit]], origins[hit], dirs[hit])
     u, w = ud / det, wd / det
     corners = v[[[0, 1, 2], [3, 4, 5]]]
     located = (1 - u)[:, None] * corners[:, 0] + u[:, None] * corners[:, 1] + w[:, None] * corners[:, 2]
@@ -173,10 +174,11 @@ def test_nearest_triangles_and_barycentrics_locate_the_hit():
     # front face (det > 0), whose hit alone the sink keeps.
     assert det[0] < 0 < det[1]
     rows, nodes, weights = sink(np.array([0, 1]), np.array([0, 0]), dirs[hit], np.ones(2), prims[hit], origins[hit])
-    assert len(nodes) == 1 and rows.expand().tolist() == [1]
+    assert len(nodes) == 1
+    assert rows.expand().tolist() == [1]
 
 
-@pytest.mark.parametrize("channels, x_channels", [(1, 1), (3, 1), (3, 3)])
+@pytest.mark.parametrize(("channels", "x_channels"), [(1, 1), (3, 1), (3, 3)])
 def test_transport_apply_equals_the_dense_sum(channels, x_channels, monkeypatch):
     """The sliced-ELLPACK product against np.add.at over the raw entries, for sorted entries
     given as row runs (the bake's case) and for unsorted ones, in grey and in colour."""
@@ -190,8 +192,8 @@ def test_transport_apply_equals_the_dense_sum(channels, x_channels, monkeypatch)
     np.add.at(expected, rows, weights[:, :, None].astype(np.float64) * x[nodes].astype(np.float64))
     half = rows.size // 2
     sorted_runs = [
-        (bounce.RowRuns(rows[:half]), nodes[:half], weights[:half]),
-        (bounce.RowRuns(rows[half:]), nodes[half:], weights[half:]),
+        (bounce_hits.RowRuns(rows[:half]), nodes[:half], weights[:half]),
+        (bounce_hits.RowRuns(rows[half:]), nodes[half:], weights[half:]),
     ]
     shuffled = rng.permutation(rows.size)
     unsorted = [(rows[shuffled], nodes[shuffled], weights[shuffled])]
@@ -212,15 +214,16 @@ def test_hits_before_the_sink_is_set_give_the_same_entries():
     occ = raytrace.EmbreeOccluder(v, t)
     results = []
     for late in (False, True):
-        sink = bounce.HitTransport(v, t, t, 0.5, len(dirs.directions))
-        given = bounce.LateSink() if late else sink
+        sink = bounce_hits.HitTransport(v, t, t, 0.5, len(dirs.directions))
+        given = bounce_hits.LateSink() if late else sink
         comp = transfer.TransferComputation(
             v, -v.astype(np.float64), dirs, 3, occ, offset=1e-4, hit_sink=given, threads=2, chunk_rays=5000
         )
         if late:
             comp.start()
             early = [e for _a, _b, future in comp._pending for e in future.result()[3]]
-            assert early and all(callable(e) for e in early)  # these slices' hits came before the sink
+            assert early
+            assert all(callable(e) for e in early)
             given.set(sink)
         direct = comp.run().coeffs
         A = bounce.Transport(comp.hits, len(v), 1)
@@ -236,13 +239,14 @@ def test_node_choice_follows_the_barycentric_weights():
     are uncorrelated (the hash of the pair)."""
     v = np.array([[0, 0, 1], [1, 0, 1], [0, 1, 1]], np.float32)
     n_rows, n_dirs = 300, 200
-    sink = bounce.HitTransport(v, [[0, 1, 2]], [[10, 11, 12]], 1.0, n_dirs, seed=3)
+    sink = bounce_hits.HitTransport(v, [[0, 1, 2]], [[10, 11, 12]], 1.0, n_dirs, seed=3)
     rows, kdir = np.repeat(np.arange(n_rows), n_dirs), np.tile(np.arange(n_dirs), n_rows)
     m = rows.size
     origins = np.broadcast_to(np.float32([0.2, 0.3, 2.0]), (m, 3))
     dirs = np.broadcast_to(np.float32([0, 0, -1]), (m, 3))
     runs, nodes, weights = sink(rows, kdir, dirs, np.ones(m), np.zeros(m, np.int32), origins)
-    assert np.array_equal(runs.expand(), rows) and len(nodes) == m
+    assert np.array_equal(runs.expand(), rows)
+    assert len(nodes) == m
     np.testing.assert_allclose(weights, 4.0 / n_dirs)
     frequency = np.bincount(nodes - 10, minlength=3) / m
     np.testing.assert_allclose(frequency, [0.5, 0.2, 0.3], atol=0.01)  # (binomial SE < 0.0015)

@@ -4,10 +4,10 @@ import warnings
 
 import numpy as np
 import pytest
-
 from conftest import bundled_hdri_path
+
 from prt_addon import api
-from prt_addon.core import raytrace
+from prt_addon.core.trace import raytrace
 
 pytestmark = pytest.mark.skipif(not raytrace.EMBREE_AVAILABLE, reason="embreex not available")
 
@@ -69,7 +69,7 @@ def open_room(bpy, scene, hdri=None, red=(0.8, 0.1, 0.1)):
 
 
 def test_bounces_zero_is_the_direct_bake_and_storage_reads_both(bpy_module, empty_scene):
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     objs = open_room(bpy_module, empty_scene)
     api.project_world(empty_scene, 3)
@@ -84,7 +84,9 @@ def test_bounces_zero_is_the_direct_bake_and_storage_reads_both(bpy_module, empt
     for o in objs:
         np.testing.assert_array_equal(storage.read_transfer(o.data), plain[o.name])  # direct unchanged
         b = storage.read_bounce(o.data)
-        assert b.shape == (len(o.data.vertices), 3, 9) and np.all(b[:, :, 0] >= 0) and b[:, :, 0].max() > 0
+        assert b.shape == (len(o.data.vertices), 3, 9)
+        assert np.all(b[:, :, 0] >= 0)
+        assert b[:, :, 0].max() > 0
         assert api.bake_status(o) == "fresh"
     # Removing one bounce attribute makes the bake stale, not silently direct-only.
     floor = objs[0].data
@@ -93,7 +95,7 @@ def test_bounces_zero_is_the_direct_bake_and_storage_reads_both(bpy_module, empt
 
 
 def test_grey_albedos_store_one_bounce_channel(bpy_module, empty_scene):
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     objs = open_room(bpy_module, empty_scene, red=(0.5, 0.5, 0.5))
     api.project_world(empty_scene, 2)
@@ -121,7 +123,7 @@ def test_bounces_need_scene_shadows(bpy_module, empty_scene):
 def test_cancel_during_the_bounce_passes_leaves_the_meshes_as_they_were(bpy_module, empty_scene):
     from prt_addon.blender.bake.job import BakeJob
     from prt_addon.blender.bake.settings import BakeSettings
-    from prt_addon.core.transfer import Cancelled
+    from prt_addon.core.transfer.quadrature import Cancelled
 
     objs = open_room(bpy_module, empty_scene)
     job = BakeJob(objs, BakeSettings(order=2, samples=32, bounces=3))
@@ -134,7 +136,8 @@ def test_cancel_during_the_bounce_passes_leaves_the_meshes_as_they_were(bpy_modu
         job.finish()
     assert any(t.startswith("Bouncing light") for _f, t in texts)
     fractions = [f for f, _t in texts]
-    assert fractions == sorted(fractions) and fractions[-1] < 1.0
+    assert fractions == sorted(fractions)
+    assert fractions[-1] < 1.0
     assert all("prt_bake" not in o.data for o in objs)
 
 
@@ -154,7 +157,7 @@ def test_unbaked_meshes_bounce_light_too(bpy_module, empty_scene):
 
 
 @pytest.mark.gpu
-@pytest.mark.parametrize("order, hdri", [(2, None), (4, "courtyard")])
+@pytest.mark.parametrize(("order", "hdri"), [(2, None), (4, "courtyard")])
 def test_viewport_draws_the_bounced_transfer_as_shade_computes_it(bpy_module, empty_scene, order, hdri):
     """Order 2 in colour fits the vertex attributes, order 4 in colour (16 vec4s) uses the
     transfer texture; under courtyard.exr the split lights' SH lights the bounced part."""
@@ -201,7 +204,7 @@ def test_export_carries_the_bounced_transfer(bpy_module, empty_scene, tmp_path):
     the stored bounced transfer per channel (in glTF's frame), as docs/export.md specifies."""
     from test_export import _assert_rows_match, _from_gltf, _stored_rows
 
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     bpy = bpy_module
     objs = open_room(bpy, empty_scene)
@@ -216,7 +219,9 @@ def test_export_carries_the_bounced_transfer(bpy_module, empty_scene, tmp_path):
     bpy.ops.import_scene.gltf(filepath=path)
     mesh = bpy.data.objects[name].data
     extras = mesh.get("PRT_lighting")
-    assert extras["bounce_channels"] == 3 and extras["per_channel"] and extras["bounces"] == 1
+    assert extras["bounce_channels"] == 3
+    assert extras["per_channel"]
+    assert extras["bounces"] == 1
     assert list(extras["bounce_attributes"]) == ["_PRT_T1", "_PRT_T2", "_PRT_T3"]
 
     def column(k):
@@ -235,7 +240,7 @@ def test_export_carries_the_bounced_transfer(bpy_module, empty_scene, tmp_path):
 
 def test_textured_and_over_bright_albedo(bpy_module, empty_scene):
     """A wall coloured by an image bounces its mean colour; an albedo above 1 is clamped to 1."""
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     bpy = bpy_module
     objs = open_room(bpy, empty_scene)
@@ -277,7 +282,7 @@ def test_textured_and_over_bright_albedo(bpy_module, empty_scene):
 def test_a_mirrored_wall_reflects_like_the_same_wall_unmirrored(bpy_module, empty_scene):
     """Scale -1 reverses a mesh's winding in world space; its faces must still reflect (a plane
     mirrored across its own plane's normal axis is the same surface)."""
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     objs = open_room(bpy_module, empty_scene)
     api.project_world(empty_scene, 2)
@@ -301,13 +306,14 @@ def test_a_mirrored_wall_reflects_like_the_same_wall_unmirrored(bpy_module, empt
 def test_more_than_a_hundred_attributes_are_written_and_cleaned(bpy_module, empty_scene):
     """Order 11 in colour: 31 x 4 = 124 attributes (prt_t00 .. prt_t123); baking again without
     bounces leaves the 31 direct ones only."""
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     objs = open_room(bpy_module, empty_scene)
     api.project_world(empty_scene, 2)
     api.bake(objs, order=11, samples=16, bounces=1)
     mesh = objs[0].data
-    assert len(storage.transfer_attribute_names(mesh)) == 124 and api.bake_status(objs[0]) == "fresh"
+    assert len(storage.transfer_attribute_names(mesh)) == 124
+    assert api.bake_status(objs[0]) == "fresh"
     assert storage.read_bounce(mesh).shape[1:] == (3, 121)
     snap = storage.snapshot(mesh)
     assert len(snap["attrs"]) == 124
@@ -319,7 +325,7 @@ def test_more_than_a_hundred_attributes_are_written_and_cleaned(bpy_module, empt
 def test_an_emission_shader_reflects_nothing(bpy_module, empty_scene):
     """Emission is not light for the bake, and an Emission-only surface has no diffuse BSDF: as
     in Cycles it reflects nothing, so the red wall's tint on the floor disappears."""
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     objs = open_room(bpy_module, empty_scene)
     api.project_world(empty_scene, 2)
@@ -361,7 +367,7 @@ def test_the_panel_bounces_are_used_only_with_scene_shadows(bpy_module, empty_sc
 def test_the_bvh_tree_fallback_bounces_like_embree(bpy_module, empty_scene):
     """Blender's BVH tree (the fallback without embreex) finds the same first hits: its
     barycentrics are solved from ray_cast's hit point, Embree's by Moller-Trumbore."""
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     objs = open_room(bpy_module, empty_scene)
     api.project_world(empty_scene, 2)

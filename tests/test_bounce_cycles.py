@@ -2,11 +2,11 @@
 
 import numpy as np
 import pytest
-
-from prt_addon import api
-from prt_addon.core import raytrace
 from conftest import cycles_vertex_bake
 from test_bounce_bake import open_room
+
+from prt_addon import api
+from prt_addon.core.trace import raytrace
 
 pytestmark = pytest.mark.skipif(not raytrace.EMBREE_AVAILABLE, reason="embreex not available")
 
@@ -14,8 +14,7 @@ pytestmark = pytest.mark.skipif(not raytrace.EMBREE_AVAILABLE, reason="embreex n
 def lights_bounce(obj, scene):
     """The part of obj's shading that is the split lights' bounced light (their SH through the
     bounced transfer), per element and channel."""
-    from prt_addon.blender import storage
-    from prt_addon.blender.display import lighting
+    from prt_addon.blender.scene import lighting, storage
 
     info, _ = storage.usable_bake(obj.data)
     bounced = storage.read_bounce(obj.data, info).astype(np.float64)
@@ -34,7 +33,8 @@ def test_open_room_bounces_match_cycles_and_the_red_wall_bleeds(bpy_module, empt
     api.bake(objs, order=8, samples=512)
     direct = {o.name: api.shade(o, empty_scene) for o in objs}
     report = api.bake(objs, order=8, samples=512, bounces=3)
-    assert report.bounces == 3 and report.bounce_channels == 3  # a red wall: colour transfer
+    assert report.bounces == 3
+    assert report.bounce_channels == 3
     bounced = {o.name: api.shade(o, empty_scene) for o in objs}
     c_direct = cycles_vertex_bake(bpy, empty_scene, objs, 256, bounces=0)
     c_total = cycles_vertex_bake(bpy, empty_scene, objs, 256, ("DIRECT", "INDIRECT"), 3)

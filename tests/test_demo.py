@@ -53,7 +53,8 @@ def test_demo_projects_bakes_renders_and_saves(tmp_path):
         # The page holds the demo's .glb (base64) and three.js, and loads nothing from elsewhere.
         embedded = page.split('id="prt-embedded"', 1)[1].split(">", 1)[1].split("</script>", 1)[0]
         assert base64.b64decode("".join(embedded.split())) == (tmp_path / "prt_demo.glb").read_bytes()
-        assert "<script src" not in page and "import(" not in page
+        assert "<script src" not in page
+        assert "import(" not in page
     for name in (
         "prt_rotation_000.png",
         "prt_rotation_120.png",

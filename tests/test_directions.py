@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from prt_addon.core import analytic, directions, sh
+from prt_addon.core.sh import analytic, basis as sh, directions
 
 
 @pytest.mark.parametrize("kind", directions.KINDS)

@@ -14,8 +14,7 @@ import pytest
 
 pytestmark = [pytest.mark.blender, pytest.mark.gpu]
 
-from prt_addon.core import analytic, sh  # noqa: E402
-
+from prt_addon.core.sh import analytic, basis as sh
 
 # ---------------------------------------------------------------------------------------------
 # Helpers
@@ -52,7 +51,7 @@ def write_bake(obj, transfer, order, domain="POINT"):
 
 
 def fingerprint(mesh):
-    from prt_addon.blender.mesh_read import topology_fingerprint
+    from prt_addon.blender.scene.mesh_read import topology_fingerprint
 
     return topology_fingerprint(mesh)
 
@@ -170,7 +169,7 @@ def lit_scene(bpy_module, empty_scene, gpu_ready):
 
 
 def set_light(scene, light):
-    from prt_addon.blender.display import lighting
+    from prt_addon.blender.scene import lighting
 
     lighting.set_light_override(scene, light)
 
@@ -182,8 +181,8 @@ def set_light(scene, light):
 
 @pytest.mark.parametrize("order", [1, 2, 3, 4, 7, 8, 12, 16])
 def test_shader_compiles_for_every_order(gpu_ready, order):
-    from prt_addon.blender import storage
     from prt_addon.blender.display import shader as display_shader
+    from prt_addon.blender.scene import storage
 
     count = storage.attribute_count(order)
     shader = display_shader.get_shader(count)
@@ -237,7 +236,8 @@ def test_offscreen_render_agrees_with_shade(bpy_module, lit_scene, order):
     set_light(lit_scene, light)
     lit_scene.prt_display.albedo_source = "WHITE"
     image = api.render_view(lit_scene, 512, 512)
-    assert image.shape == (512, 512, 4) and image.dtype == np.float32
+    assert image.shape == (512, 512, 4)
+    assert image.dtype == np.float32
     expected = api.shade(obj, lit_scene)
     got, visible = sample_at_vertices(bpy_module, obj, lit_scene, image)
     assert visible.sum() > 200
@@ -246,7 +246,8 @@ def test_offscreen_render_agrees_with_shade(bpy_module, lit_scene, order):
     assert np.median(err) < 0.01, np.median(err)
     assert err.max() < 0.05, err.max()
     # Background stays transparent, the sphere is opaque.
-    assert image[0, 0, 3] == 0.0 and image[256, 256, 3] == 1.0
+    assert image[0, 0, 3] == 0.0
+    assert image[256, 256, 3] == 1.0
 
 
 def test_material_albedo_multiplies(bpy_module, lit_scene):
@@ -271,6 +272,7 @@ def test_material_albedo_multiplies(bpy_module, lit_scene):
 def test_corner_domain_flat_faces(bpy_module, lit_scene):
     """A flat-shaded cube baked per corner: every face is uniform and equals shade() there."""
     import bmesh
+
     import prt_addon.api as api
 
     mesh = bpy_module.data.meshes.new("Cube")
@@ -341,5 +343,6 @@ def test_texture_path_with_several_materials(bpy_module, lit_scene):
     tint = np.where(zv[keep] > 0, 1.0, 0.5)[:, None]
     want = expected[visible][keep] * tint
     err = np.abs(got[keep] - want) / (want + 0.05)
-    assert (zv[keep] < 0).sum() > 50 and (zv[keep] > 0).sum() > 50
+    assert (zv[keep] < 0).sum() > 50
+    assert (zv[keep] > 0).sum() > 50
     assert np.median(err) < 0.01 and err.max() < 0.05, (np.median(err), err.max())

@@ -5,9 +5,13 @@ Needs the GPU initialised headless; helpers and the lit_scene fixture come from 
 
 import numpy as np
 import pytest
-
-from test_display import bake_sphere, local_positions, set_light, sun_sky_light
-from test_display import lit_scene  # noqa: F401 (a fixture)
+from test_display import (
+    bake_sphere,
+    lit_scene,  # noqa: F401
+    local_positions,
+    set_light,
+    sun_sky_light,
+)
 
 pytestmark = [pytest.mark.blender, pytest.mark.gpu]
 
@@ -111,8 +115,7 @@ def test_modifier_that_reorders_vertices_draws_the_undeformed_mesh(bpy_module, l
 
 def test_handler_removed_on_unregister_and_file_load(bpy_module, addon, gpu_ready, tmp_path):
     import prt_addon
-    from prt_addon.blender.display import handlers
-    from prt_addon.blender.display import draw as display_draw
+    from prt_addon.blender.display import draw as display_draw, handlers
 
     def removable(handle):
         try:
@@ -138,7 +141,8 @@ def test_handler_removed_on_unregister_and_file_load(bpy_module, addon, gpu_read
     bpy_module.ops.wm.save_as_mainfile(filepath=path)
     bpy_module.ops.wm.open_mainfile(filepath=path)
     second = display_draw.draw_handle()
-    assert second is not None and second is not first
+    assert second is not None
+    assert second is not first
     assert not removable(first)  # removed before the file loaded
     # Exactly one live handler: the new one (removing it here, then restoring it).
     assert removable(second)
@@ -209,9 +213,9 @@ def test_viewport_callback_draws_with_exposure_and_toggle(bpy_module, lit_scene,
 
     import gpu
     import mathutils
+
     import prt_addon.api as api
-    from prt_addon.blender.display import colour, offscreen
-    from prt_addon.blender.display import draw as display_draw
+    from prt_addon.blender.display import colour, draw as display_draw, offscreen
 
     bake_sphere(bpy_module, 4, segments=32, rings=16)
     set_light(lit_scene, sun_sky_light(4))
@@ -228,14 +232,13 @@ def test_viewport_callback_draws_with_exposure_and_toggle(bpy_module, lit_scene,
         space_data=None,
         evaluated_depsgraph_get=bpy_module.context.evaluated_depsgraph_get,
     )
-    monkeypatch.setattr(display_draw, "bpy", types.SimpleNamespace(context=context, types=bpy_module.types))
 
     def viewport_frame():
         off = gpu.types.GPUOffScreen(128, 128, format="RGBA32F")
         with off.bind():
             fb = gpu.state.active_framebuffer_get()
             fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
-            display_draw._draw_callback()
+            display_draw.draw_viewport(context)
             img = np.asarray(fb.read_color(0, 0, 128, 128, 4, 0, "FLOAT")).T.reshape(128, 128, 4)[::-1].copy()
         off.free()
         return img
@@ -244,6 +247,7 @@ def test_viewport_callback_draws_with_exposure_and_toggle(bpy_module, lit_scene,
     mask = reference[..., 3] > 0
     assert mask.sum() > 1000
     np.testing.assert_allclose(colour.encode_display(frame[mask, :3]), reference[mask, :3], rtol=1e-5, atol=1e-6)
-    assert np.all(reference[mask, :3] >= unexposed[mask, :3]) and np.mean(reference - unexposed) > 0.01
+    assert np.all(reference[mask, :3] >= unexposed[mask, :3])
+    assert np.mean(reference - unexposed) > 0.01
     lit_scene.prt.show_display = False
     assert np.all(viewport_frame() == 0.0)

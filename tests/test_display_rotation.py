@@ -8,9 +8,14 @@ import warnings
 
 import numpy as np
 import pytest
-
-from test_display import bake_sphere, local_positions, sample_at_vertices, set_light, sun_sky_light
-from test_display import lit_scene  # noqa: F401 (a fixture)
+from test_display import (
+    bake_sphere,
+    lit_scene,  # noqa: F401
+    local_positions,
+    sample_at_vertices,
+    set_light,
+    sun_sky_light,
+)
 
 pytestmark = [pytest.mark.blender, pytest.mark.gpu]
 
@@ -93,8 +98,9 @@ def test_projected_world_turns_through_a_mapping_node_added_by_hand(bpy_module, 
     """The real path, no injected light: an image world projected without a Mapping node, then a
     Mapping node added and turned by hand. The display, api.shade and api.world_lighting all
     follow it, and the +X sun of the image lights the sphere from -Y (POINT, +90 deg about Z)."""
-    import prt_addon.api as api
     from test_world import add_mapping, float_image, image_of, use_image
+
+    import prt_addon.api as api
 
     order = 4
     world = lit_scene.world
@@ -153,9 +159,9 @@ def test_object_rotation_equals_opposite_lighting_rotation(bpy_module, lit_scene
 def test_world_projection_seam(bpy_module, lit_scene):  # noqa: F811
     """With no override the display reads world_projection.current_world_coeffs: a constant
     colour world c lights an unshadowed sphere to radiance c everywhere (white furnace)."""
-    from prt_addon.blender.world import projection as world_projection
     import prt_addon.api as api
-    from prt_addon.blender.display import lighting
+    from prt_addon.blender.scene import lighting
+    from prt_addon.blender.world import projection as world_projection
 
     world = bpy_module.data.worlds.new("Const")
     with warnings.catch_warnings():

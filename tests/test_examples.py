@@ -21,5 +21,6 @@ def test_bake_scene_example_runs(tmp_path):
     )
     assert "Traceback" not in run.stderr, run.stderr
     assert "Baked 2 object(s)" in run.stdout and "lighting turned  90 deg" in run.stdout, run.stdout
-    assert png.is_file() and png.stat().st_size > 1000
+    assert png.is_file()
+    assert png.stat().st_size > 1000
     assert run.returncode == 0, run.stdout + run.stderr

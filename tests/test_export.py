@@ -26,8 +26,8 @@ def _world(bpy):
 def baked(empty_scene, bpy_module):
     """Ico sphere (smooth, POINT) on a grid (POINT), a flat cube (CORNER); lighting with a light."""
     from prt_addon import api
-    from prt_addon.blender.display import lighting
-    from prt_addon.core.lights import Light
+    from prt_addon.blender.scene import lighting
+    from prt_addon.core.lights.extraction import Light
 
     bpy = bpy_module
     _world(bpy)
@@ -67,7 +67,7 @@ def _read_glb(path):
 
 def _stored_rows(obj):
     """(positions (E, 3) local, Blender frame; transfer (E, n*n)) of an object's bake."""
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     mesh = obj.data
     bake, _ = storage.read_bake_record(mesh)
@@ -100,7 +100,7 @@ def _from_gltf(values):
     from prt_addon.blender.export import gltf
 
     n = int(round(np.sqrt(values.shape[1])))
-    from prt_addon.core import rotation
+    from prt_addon.core.sh import rotation
 
     return (rotation.rotation_matrix(gltf.BLENDER_TO_GLTF, n).T @ values.T).T
 
@@ -136,22 +136,28 @@ def test_export_round_trip(baked, bpy_module, tmp_path):
     scene, objs = baked
     before = _user_state(bpy)
     path = api.export_gltf(str(tmp_path / "scene.glb"))
-    assert os.path.isfile(path) and os.listdir(tmp_path) == ["scene.glb"]
+    assert os.path.isfile(path)
+    assert os.listdir(tmp_path) == ["scene.glb"]
     assert _user_state(bpy) == before
     document, accessor = _read_glb(path)
     world = document["scenes"][0]["extras"]["PRT_lighting"]
     expected = gltf.to_gltf_frame(projection.current_world_coeffs(scene))
-    assert world["order"] == 4 and np.allclose(world["coefficients"], expected, atol=1e-12)
+    assert world["order"] == 4
+    assert np.allclose(world["coefficients"], expected, atol=1e-12)
     assert len(world["lights"]) == 1
     assert np.allclose(world["lights"][0]["direction"], [0.0, 0.8, -0.6])
-    assert np.allclose(world["lights"][0]["power"], [3.0, 2.0, 1.0]) and world["lights"][0]["angle"] == 0.05
+    assert np.allclose(world["lights"][0]["power"], [3.0, 2.0, 1.0])
+    assert world["lights"][0]["angle"] == 0.05
     # A light without samples (its disc): null samples, the shadow filter's disc is its angle.
-    assert world["lights"][0]["samples"] is None and world["lights"][0]["weights"] is None
+    assert world["lights"][0]["samples"] is None
+    assert world["lights"][0]["weights"] is None
     assert world["lights"][0]["shadow_angle"] == 0.05
     # Its one shadow view (docs/export.md, "Shadow views"): a compact map along it, no sample indices.
     (view,) = world["lights"][0]["views"]
-    assert np.allclose(view["direction"], [0.0, 0.8, -0.6]) and view["angle"] == 0.05
-    assert view["samples"] is None and view["wide"] is False
+    assert np.allclose(view["direction"], [0.0, 0.8, -0.6])
+    assert view["angle"] == 0.05
+    assert view["samples"] is None
+    assert view["wide"] is False
     nodes = {n["name"]: n for n in document["nodes"]}
     for name, order, domain in (("sphere", 3, "POINT"), ("grid", 3, "POINT"), ("cube", 4, "CORNER")):
         obj = objs[name]

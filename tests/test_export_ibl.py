@@ -8,9 +8,8 @@ import time
 
 import numpy as np
 import pytest
-
 from conftest import bundled_hdri_path, random_directions
-from test_export import VALIDATE_JS, validator_modules  # noqa: F401 (a fixture)
+from test_export import VALIDATE_JS, validator_modules  # noqa: F401
 from test_prefilter import _decode_png
 
 pytestmark = pytest.mark.blender
@@ -42,7 +41,8 @@ def forest_scene(empty_scene, bpy_module):
 
 def test_extension_json_is_complete(forest_scene, tmp_path, capsys):
     from prt_addon.blender.export import glb, gltf, ibl
-    from prt_addon.core import prefilter, sh
+    from prt_addon.core.ibl import prefilter
+    from prt_addon.core.sh import basis as sh
 
     path = str(tmp_path / "forest.glb")
     start = time.perf_counter()
@@ -62,13 +62,15 @@ def test_extension_json_is_complete(forest_scene, tmp_path, capsys):
     assert len(lights) == 1
     light = lights[0]
     assert set(light) >= {"intensity", "rotation", "irradianceCoefficients", "specularImageSize", "specularImages"}
-    assert light["intensity"] == 1.0 and light["rotation"] == [0.0, 0.0, 0.0, 1.0]
+    assert light["intensity"] == 1.0
+    assert light["rotation"] == [0.0, 0.0, 0.0, 1.0]
     assert light["specularImageSize"] == ibl.DEFAULT_SIZE == 128
     assert np.array(light["irradianceCoefficients"]).shape == (9, 3)
     for gltf_scene in document["scenes"]:
         assert gltf_scene["extensions"][ibl.EXTENSION] == {"light": 0}
     specular = light["specularImages"]
-    assert len(specular) == 8 and all(len(row) == 6 for row in specular)  # 128 .. 1
+    assert len(specular) == 8
+    assert all(len(row) == 6 for row in specular)
     binary = chunks[0][1]
     assert document["buffers"][0]["byteLength"] <= len(binary) < document["buffers"][0]["byteLength"] + 4
     for k, row in enumerate(specular):
@@ -90,14 +92,15 @@ def test_extension_json_is_complete(forest_scene, tmp_path, capsys):
     assert light["extras"]["PRT_lighting"]["roughness"] == pytest.approx(np.sqrt(prefilter.babylon_alphas(128)))
     # The file without the environment has no trace of it.
     document_plain, _ = glb.read(plain)
-    assert "extensions" not in document_plain and ibl.EXTENSION not in document_plain.get("extensionsUsed", [])
+    assert "extensions" not in document_plain
+    assert ibl.EXTENSION not in document_plain.get("extensionsUsed", [])
 
 
 def test_irradiance_signs_by_hand():
     """Babylon's basis (Condon-Shortley) in its frame (x negated): each of our 9 basis functions
     in glTF's frame is +-1 times Babylon's at the mirrored direction, with BABYLON_SIGNS."""
     from prt_addon.blender.export import ibl
-    from prt_addon.core import sh
+    from prt_addon.core.sh import basis as sh
 
     g = random_directions(20, 4)
     for i in range(9):
@@ -155,14 +158,15 @@ def test_operator_writes_the_chosen_environment_size(forest_scene, bpy_module, t
         lights = document.get("extensions", {}).get("EXT_lights_image_based", {}).get("lights", [])
         assert len(lights) == (1 if mips else 0)
         if mips:
-            assert lights[0]["specularImageSize"] == 64 and len(lights[0]["specularImages"]) == mips
+            assert lights[0]["specularImageSize"] == 64
+            assert len(lights[0]["specularImages"]) == mips
 
 
 def test_constant_world_environment(empty_scene, bpy_module, tmp_path):
     """A plain colour world: every texel of every mip is the colour times the strength."""
     from prt_addon import api
     from prt_addon.blender.export import glb, gltf, ibl
-    from prt_addon.core import rgbd_png
+    from prt_addon.core.ibl import rgbd_png
 
     bpy = bpy_module
     world = bpy.data.worlds.new("Grey")
@@ -195,7 +199,7 @@ def test_rendered_world_lands_in_the_right_faces(empty_scene, bpy_module):
     negated): the render path's frame, not only the image path's."""
     from prt_addon import api
     from prt_addon.blender.export import gltf, ibl
-    from prt_addon.core import prefilter
+    from prt_addon.core.ibl import prefilter
 
     bpy = bpy_module
     world = bpy.data.worlds.new("Linked strength")

@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-
 from test_export import _assert_rows_match, _read_glb, _world
 
 
@@ -24,7 +23,7 @@ def _node_matrix(node):
 def test_shading_from_the_file_as_docs_say(empty_scene, bpy_module, tmp_path, scale):
     """docs/export.md's shading steps on the file's data give api.shade's radiance (SH part)."""
     from prt_addon import api
-    from prt_addon.core import rotation, sh
+    from prt_addon.core.sh import basis as sh, rotation
 
     bpy = bpy_module
     _world(bpy)
@@ -35,7 +34,7 @@ def test_shading_from_the_file_as_docs_say(empty_scene, bpy_module, tmp_path, sc
     bpy.ops.mesh.primitive_plane_add(size=6.0)
     api.project_world(order=3)
     # A directional light (not only the constant colour), through the test override.
-    from prt_addon.blender.display import lighting
+    from prt_addon.blender.scene import lighting
 
     light = np.zeros((16, 3))
     light[0], light[1], light[2], light[3], light[6] = 1.0, (0.3, 0.1, 0.0), (0.8, 0.5, 0.2), -0.4, 0.2

@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 
-from prt_addon.core import analytic, sh
+from prt_addon.core.sh import analytic, basis as sh
 
 pytestmark = pytest.mark.blender
 
@@ -82,12 +82,14 @@ def test_order_one_and_largest_order(empty_scene, bpy_module, order):
         smooth=False,
     )
     report = api.bake([plane], order=order, samples=4096)
-    assert report.ok and report.order == order
+    assert report.ok
+    assert report.order == order
     assert plane.data["prt_bake"]["order"] == order
     (r,) = shade_white(bpy, empty_scene, [plane], order)
     y = r.mean(axis=1)
     # Under a white sky, E/pi is the visible fraction: <= 1, and < 1 under the box.
-    assert y.max() <= 1.0 + 2e-3 and y.min() > 0.3
+    assert y.max() <= 1.0 + 2e-3
+    assert y.min() > 0.3
     centre = int(np.argmin(np.linalg.norm(np.array(grid(6, 2.0)[0])[:, :2], axis=1)))
     corner = 0
     assert y[centre] < y[corner] - 0.05
@@ -102,8 +104,8 @@ def test_order_one_and_largest_order(empty_scene, bpy_module, order):
 def test_unoccluded_point_at_order_16_is_the_clamped_cosine(empty_scene, bpy_module):
     """A lone plane (nothing occludes it) at order 16: transfer = clamped cosine coefficients."""
     from prt_addon import api
-    from prt_addon.blender import storage
     from prt_addon.blender.display import gpu_cache
+    from prt_addon.blender.scene import storage
 
     bpy = bpy_module
     plane = mesh_object(bpy, empty_scene, "plane", *grid(3))
@@ -166,7 +168,7 @@ def test_one_inf_pixel_and_one_by_one_hdri_shade_finite(empty_scene, bpy_module)
 
 
 def test_error_estimate_within_a_factor_of_two_on_a_reference_scene(empty_scene, bpy_module):
-    """The bake's error estimate (default Fibonacci set, calibrated in core.transfer.
+    """The bake's error estimate (default Fibonacci set, calibrated in core.transfer.quadrature.
     error_calibration) against the measured RMS |t - t_conv| on Suzanne subdivided once on a ground
     grid, as in docs/accuracy.md: within a factor of 2 either way."""
     from prt_addon import api
@@ -189,7 +191,7 @@ def test_error_estimate_within_a_factor_of_two_on_a_reference_scene(empty_scene,
 
     def transfer():
         from prt_addon.blender.display import gpu_cache
-        from prt_addon.blender import storage
+        from prt_addon.blender.scene import storage
 
         out = []
         for o in objs:

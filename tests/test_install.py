@@ -67,12 +67,14 @@ def install_and_use(python, linux_zip, tmp_path, mode):
 def check_lifecycle(result):
     assert result["install"] == ["FINISHED"]
     assert result["enabled"] == [True, True]
-    assert result["scene_property"] and result["panel"]
+    assert result["scene_property"]
+    assert result["panel"]
     np.testing.assert_allclose(result["basis_north_pole"], [0.5 / np.sqrt(np.pi), 0, np.sqrt(3 / (4 * np.pi)), 0])
     # Used: a world projected, a sphere on a plane baked and shaded, the lighting rotated.
     assert result["project"] == ["FINISHED"]
     assert all(c > 0 for c in result["light_c0"])  # forest.exr is bright everywhere
-    assert result["bake"] == ["FINISHED"] and result["bake_report"]["ok"]
+    assert result["bake"] == ["FINISHED"]
+    assert result["bake_report"]["ok"]
     assert result["bake_report"]["rays_traced"] > 0  # the sphere shadows the plane
     assert result["status"] == ["fresh", "fresh"]
     shade = result["shade"]
@@ -80,17 +82,21 @@ def check_lifecycle(result):
     # Lit from the sky: the top of the sphere is brighter than its underside (which faces the
     # plane, in its shadow).
     assert sum(shade["top"]) > sum(shade["bottom"]), shade
-    assert result["rotate"] == ["FINISHED"] and result["rotation_changes_shading"] > 1e-4
+    assert result["rotate"] == ["FINISHED"]
+    assert result["rotation_changes_shading"] > 1e-4
     assert result["draw_handler_while_enabled"]
     # Disabled: nothing of ours is left registered.
     assert result["disable"] == ["FINISHED"]
-    assert not result["scene_property_after_disable"] and not result["panel_after_disable"]
+    assert not result["scene_property_after_disable"]
+    assert not result["panel_after_disable"]
     assert result["operators_after_disable"] == []
     assert result["handlers_after_disable"] == []
     assert result["functions_checked_for_timers"] > 50
     # The one timer while enabled is the display's colour check (display/colour.py); none after.
-    assert result["timers_while_enabled"] == ["_check"] and result["timers_after_disable"] == []
-    assert not result["draw_handler_after_disable"] and result["running_bakes_after_disable"] == 0
+    assert result["timers_while_enabled"] == ["_check"]
+    assert result["timers_after_disable"] == []
+    assert not result["draw_handler_after_disable"]
+    assert result["running_bakes_after_disable"] == 0
     assert result["uninstall"] == ["FINISHED"]
     assert not result["files_left"]
 
@@ -105,7 +111,8 @@ def test_install_enable_use_disable_remove(version, tmp_path):
     assert result["bundled_embreex"], "the embreex wheel in the zip was not installed"
     assert result["embree_available"]
     check_lifecycle(result)
-    assert result["backend"] == "EMBREE" and result["bake_report"]["backend"] == "EMBREE"
+    assert result["backend"] == "EMBREE"
+    assert result["bake_report"]["backend"] == "EMBREE"
     assert result["bake_report"]["note"] == ""
 
 
@@ -116,11 +123,14 @@ def test_without_embree_the_bvhtree_fallback_works_and_says_so(version, tmp_path
     python = python_for(version)
     linux_zip = build_linux_zip(python, tmp_path / "dist", no_wheels=True)
     result = install_and_use(python, linux_zip, tmp_path, "no-embree")
-    assert not result["bundled_embreex"] and not result["embree_available"]
+    assert not result["bundled_embreex"]
+    assert not result["embree_available"]
     check_lifecycle(result)
-    assert result["backend"] == "BVHTREE" and result["bake_report"]["backend"] == "BVHTREE"
+    assert result["backend"] == "BVHTREE"
+    assert result["bake_report"]["backend"] == "BVHTREE"
     note = result["bake_report"]["note"]
-    assert "Embree (embreex) is not available on this system" in note and "BVH tree fallback" in note
+    assert "Embree (embreex) is not available on this system" in note
+    assert "BVH tree fallback" in note
     assert "slower" in note
     # The same sentence is in Blender's report (a WARNING of the operator) and in the panel's
     # bake report (summary_lines).

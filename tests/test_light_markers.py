@@ -5,7 +5,6 @@ import math
 
 import numpy as np
 import pytest
-
 from test_display import add_camera
 from test_light_split import image_world, sunny_image
 
@@ -116,7 +115,7 @@ def test_marker_follows_the_mapping_rotation_live(bpy_module, sun_scene):
 
 def test_circle_has_the_angular_radius_seen_from_the_cursor():
     from prt_addon.blender.display import light_markers
-    from prt_addon.core.lights import Light
+    from prt_addon.core.lights.extraction import Light
 
     lights = [Light([0.0, 0.6, 0.8], [4.0, 2.0, 1.0], math.radians(5.0)), Light([1.0, 0.0, 0.0], [1.0, 1.0, 1.0], 0.0)]
     centre = np.array([1.0, -2.0, 0.5])
@@ -126,14 +125,16 @@ def test_circle_has_the_angular_radius_seen_from_the_cursor():
     np.testing.assert_allclose(np.degrees(np.arccos(seen @ [0.0, 0.6, 0.8])), 5.0, atol=1e-9)
     np.testing.assert_allclose(circle[0], circle[-1], atol=1e-12)  # a closed loop
     np.testing.assert_allclose(circle2, np.tile(centre + [3.0, 0.0, 0.0], (len(circle2), 1)), atol=1e-12)
-    assert colour == (1.0, 0.5, 0.25, 1.0) and colour2 == (1.0, 1.0, 1.0, 1.0)
+    assert colour == (1.0, 0.5, 0.25, 1.0)
+    assert colour2 == (1.0, 1.0, 1.0, 1.0)
     assert width > width2  # the strongest light's line is the widest
 
 
 def test_viewport_handler_lives_with_the_draw_handler(bpy_module, addon):
     from prt_addon.blender.display import draw, light_markers
 
-    assert draw.draw_handle() is not None and light_markers._handle is not None
+    assert draw.draw_handle() is not None
+    assert light_markers._handle is not None
     draw.remove_draw_handler()
     try:
         assert light_markers._handle is None

@@ -2,11 +2,11 @@
 
 import numpy as np
 import pytest
-
-from prt_addon.core import light_samples, lights
-from prt_addon.core.projection import pixel_directions, pixel_solid_angles
 from test_light_visibility import HalfPlane
 from test_lights import rotation_z, sky_with_discs, unit
+
+from prt_addon.core.lights import extraction as lights, samples as light_samples, visibility
+from prt_addon.core.sh.projection import pixel_directions, pixel_solid_angles
 
 HEIGHT, WIDTH = 256, 512
 WIDE = unit(20.0, 12.0)
@@ -35,10 +35,11 @@ def random_normals(count, seed):
 def test_region_samples_split_the_power_evenly_inside_the_region():
     rng = np.random.default_rng(2)
     centre = unit(-40.0, 25.0)
-    dirs = lights.disc_directions(centre, np.radians(15.0), 4000)  # uniform over a 15 degree cap
+    dirs = visibility.disc_directions(centre, np.radians(15.0), 4000)  # uniform over a 15 degree cap
     weights = rng.uniform(0.5, 1.5, len(dirs))
     samples, w = light_samples.region_samples(dirs * weights[:, None], weights, 16)
-    assert samples.shape == (16, 3) and w.shape == (16,)
+    assert samples.shape == (16, 3)
+    assert w.shape == (16,)
     np.testing.assert_allclose(w.sum(), 1.0, rtol=1e-12)
     np.testing.assert_allclose(np.linalg.norm(samples, axis=1), 1.0, rtol=1e-12)
     assert np.all(np.abs(w - 1.0 / 16) < 0.2 / 16)  # halves of equal power, each within a texel's weight
@@ -56,16 +57,18 @@ def test_wide_light_shading_matches_the_texel_sum_at_every_normal(wide_image):
     """Unoccluded, P / pi sum_j w_j max(0, n . s_j) against the excess summed texel by texel with
     max(0, n . w) / pi, for normals all round (the cap half below the horizon of many)."""
     residual, found = lights.extract_lights(wide_image, threshold=10.0)
-    assert len(found) == 1 and len(found[0].samples) == light_samples.SAMPLES_PER_LIGHT
+    assert len(found) == 1
+    assert len(found[0].samples) == light_samples.SAMPLES_PER_LIGHT
     dirs, power = texel_excess(wide_image, residual)
     normals = random_normals(400, 7)
     brute = np.maximum(0.0, normals @ dirs.T) / np.pi @ power
     scale = found[0].power[0] / np.pi  # a facing surface's value
-    error = np.abs(lights.light_irradiance(normals, found) - brute).max() / scale
+    error = np.abs(visibility.light_irradiance(normals, found) - brute).max() / scale
     _, disc = lights.extract_lights(wide_image, threshold=10.0, samples=0)
-    disc_error = np.abs(lights.light_irradiance(normals, disc) - brute).max() / scale
+    disc_error = np.abs(visibility.light_irradiance(normals, disc) - brute).max() / scale
     print(f"30 degree light, max error / facing value: samples {error:.4f}, disc {disc_error:.4f}")
-    assert error < 0.01 and disc_error > 3.0 * error
+    assert error < 0.01
+    assert disc_error > 3.0 * error
 
 
 def test_sampled_visibility_converges_to_the_traced_texels(wide_image):
@@ -83,11 +86,12 @@ def test_sampled_visibility_converges_to_the_traced_texels(wide_image):
         [~HalfPlane().occluded(np.tile(p, (len(dirs), 1)).astype(np.float32), dirs.astype(np.float32)) for p in points]
     )
     truth = free @ weight / weight.sum()
-    assert truth[0] > 0.9 and truth[-1] < 0.1
+    assert truth[0] > 0.9
+    assert truth[-1] < 0.1
     # The light's excess texels as 16 or 256 samples: 16 rays resolve an edge to about 1/16.
     for count, tolerance in ((16, 0.07), (256, 0.015)):
         _, found = lights.extract_lights(image, threshold=10.0, samples=count)
-        seen = lights.light_visibility(points, normals, found, HalfPlane(), offset=1e-6)[:, 0]
+        seen = visibility.light_visibility(points, normals, found, HalfPlane(), offset=1e-6)[:, 0]
         print(f"{count} samples: largest visibility error {np.abs(seen - truth).max():.4f}")
         np.testing.assert_allclose(seen, truth, atol=tolerance)
 
@@ -132,7 +136,7 @@ def test_rotated_samples_match_the_samples_of_the_rotated_image():
     rotated = lights.rotate_lights(found, rotation_z(-np.pi / 2))
     normals = random_normals(300, 11)
     np.testing.assert_allclose(
-        lights.light_cosines(normals, rotated), lights.light_cosines(normals, found_rolled), atol=1e-3
+        visibility.light_cosines(normals, rotated), visibility.light_cosines(normals, found_rolled), atol=1e-3
     )
     np.testing.assert_allclose(rotated[0].samples, found[0].samples @ rotation_z(-np.pi / 2).T, atol=1e-15)
     np.testing.assert_allclose(rotated[0].direction, found_rolled[0].direction, atol=1e-9)
@@ -152,5 +156,6 @@ def test_shadow_angle_of_a_sun_in_its_halo_is_the_sun():
     sun = np.radians(0.5)
     image = sky_with_discs([(WIDE, np.radians(10.0), 5.0), (unit(22.0, 13.0), sun, 5e4)])
     _, found = lights.extract_lights(image, threshold=2.0)
-    assert len(found) == 1 and found[0].angle > 3.0 * sun
+    assert len(found) == 1
+    assert found[0].angle > 3.0 * sun
     assert light_samples.shadow_angle(found[0]) == pytest.approx(sun, rel=0.2)

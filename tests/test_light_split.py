@@ -6,12 +6,11 @@ import time
 
 import numpy as np
 import pytest
-
-from prt_addon.core import lights as core_lights
-from prt_addon.core import rotation
-
-from test_world import add_mapping, float_image, image_of, known_coeffs, new_world, use_image
 from conftest import cycles_vertex_bake
+from test_world import add_mapping, float_image, image_of, known_coeffs, new_world, use_image
+
+from prt_addon.core.lights import extraction as core_lights
+from prt_addon.core.sh import rotation
 
 pytestmark = pytest.mark.blender
 
@@ -55,7 +54,8 @@ def test_energy_sky_plus_lights_is_the_unsplit_projection(bpy_module, empty_scen
     np.testing.assert_allclose(total, unsplit[0], rtol=1e-9)
     settings = empty_scene.prt_world
     assert settings.split_lights  # the override did not change the setting
-    assert settings.light_count == len(lights) and 0.0 < settings.light_share < 1.0
+    assert settings.light_count == len(lights)
+    assert 0.0 < settings.light_share < 1.0
     assert empty_scene.prt_world.projected_size[1] == min(height, 256)
 
 
@@ -118,7 +118,8 @@ def test_projection_without_lights_key_still_loads_and_shades(bpy_module, empty_
     assert api.world_lights(scene) == []
     ground = scene.objects["Grid"]
     without = api.shade(ground, scene)
-    assert without.shape == with_lights.shape and np.all(np.isfinite(without))
+    assert without.shape == with_lights.shape
+    assert np.all(np.isfinite(without))
     assert without.mean() < with_lights.mean()
 
 
@@ -131,7 +132,8 @@ def test_samples_survive_saving_and_lights_stored_without_them_are_discs(bpy_mod
     image_world(bpy_module, empty_scene, sunny_image(64, 128))
     api.project_world(empty_scene, 4)
     before = api.world_lights(empty_scene)
-    assert before and before[0]["samples"] is not None
+    assert before
+    assert before[0]["samples"] is not None
     np.testing.assert_allclose(before[0]["weights"].sum(), 1.0, rtol=1e-12)
     path = str(tmp_path / "samples.blend")
     bpy_module.ops.wm.save_as_mainfile(filepath=path)
@@ -143,7 +145,8 @@ def test_samples_survive_saving_and_lights_stored_without_them_are_discs(bpy_mod
     scene = bpy_module.context.scene
     del scene[light_split.SAMPLES_KEY]  # as a projection stored before the samples
     old = api.world_lights(scene)
-    assert len(old) == len(before) and all(light["samples"] is None for light in old)
+    assert len(old) == len(before)
+    assert all(light["samples"] is None for light in old)
     np.testing.assert_allclose(old[0]["direction"], before[0]["direction"], atol=1e-12)
     scene[light_split.SAMPLES_KEY] = [3.0, 1.0]  # unreadable samples: the lights still load, as discs
     assert [light["samples"] for light in api.world_lights(scene)] == [None] * len(before)
@@ -152,7 +155,7 @@ def test_samples_survive_saving_and_lights_stored_without_them_are_discs(bpy_mod
 def test_light_is_shadowed_by_the_scene(bpy_module, empty_scene):
     """Under a light straight above, the ground below the box is dark and the rest lit."""
     from prt_addon import api
-    from prt_addon.blender.display import lighting
+    from prt_addon.blender.scene import lighting
 
     new_world(bpy_module, empty_scene, color=(0.0, 0.0, 0.0), strength=0.0)
     image_world(bpy_module, empty_scene, np.full((8, 16, 3), 1e-3))
@@ -168,7 +171,8 @@ def test_light_is_shadowed_by_the_scene(bpy_module, empty_scene):
     xy = np.array([ground.matrix_world @ v.co for v in ground.data.vertices])[:, :2]
     under = np.all(np.abs(xy) < 0.45, axis=1)
     outside = np.any(np.abs(xy) > 0.55, axis=1)
-    assert under.any() and outside.any()
+    assert under.any()
+    assert outside.any()
     assert values[under].max() < 0.01
     np.testing.assert_allclose(values[outside], 3.0 / math.pi, rtol=0.02)
     assert len(on_box) == len(box.data.loops)
@@ -199,7 +203,8 @@ def test_bad_split_settings_change_nothing(bpy_module, empty_scene, kwargs):
     token, lights = empty_scene.prt_world.token, api.world_lights(empty_scene)
     with pytest.raises(Error, match="threshold|lights"):
         api.project_world(empty_scene, 6, **kwargs)
-    assert empty_scene.prt_world.token == token and empty_scene.prt_world.stored_order == 4
+    assert empty_scene.prt_world.token == token
+    assert empty_scene.prt_world.stored_order == 4
     np.testing.assert_array_equal(api.world_lighting(empty_scene), before)
     assert len(api.world_lights(empty_scene)) == len(lights)
 
@@ -211,7 +216,9 @@ def test_one_colour_image_and_high_threshold_give_no_lights(bpy_module, empty_sc
     image_world(bpy_module, empty_scene, np.full((32, 64, 3), 0.7))
     api.project_world(empty_scene, 4)
     settings = empty_scene.prt_world
-    assert api.world_lights(empty_scene) == [] and settings.light_count == 0 and settings.stored_split
+    assert api.world_lights(empty_scene) == []
+    assert settings.light_count == 0
+    assert settings.stored_split
     assert light_split.summary(settings) == ["No compact bright source:", "no lights"]
     image_world(bpy_module, empty_scene, sunny_image(64, 128))
     api.project_world(empty_scene, 4, threshold=1e6)
@@ -222,10 +229,12 @@ def test_one_colour_image_and_high_threshold_give_no_lights(bpy_module, empty_sc
     settings.auto_threshold = True  # Auto ignores the number
     api.project_world(empty_scene, 4)
     lines = light_split.summary(settings)
-    assert lines[0].startswith(f"{settings.light_count} light") and all(len(x) <= 32 for x in lines)
+    assert lines[0].startswith(f"{settings.light_count} light")
+    assert all(len(x) <= 32 for x in lines)
     new_world(bpy_module, empty_scene, color=(0.2, 0.3, 0.4))
     api.project_world(empty_scene, 4)
-    assert api.world_lights(empty_scene) == [] and not settings.stored_split
+    assert api.world_lights(empty_scene) == []
+    assert not settings.stored_split
 
 
 # --- against Cycles ---------------------------------------------------------------------------
@@ -298,6 +307,7 @@ def test_rendered_world_is_split_too(bpy_module, empty_scene):
     split = api.project_world(empty_scene, 4, split_lights=True)
     assert empty_scene.prt_world.source_kind == "RENDER"
     lights = api.world_lights(empty_scene)
-    assert lights and empty_scene.prt_world.strongest_elevation > 0.0
+    assert lights
+    assert empty_scene.prt_world.strongest_elevation > 0.0
     total = split[0] + sum(light["power"] for light in lights) * Y0
     np.testing.assert_allclose(total, unsplit[0], rtol=1e-3)  # two renders: their noise differs

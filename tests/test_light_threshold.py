@@ -2,10 +2,10 @@
 
 import numpy as np
 import pytest
-
-from prt_addon.core import lights
-from prt_addon.core.projection import pixel_solid_angles
 from test_lights import sky_with_discs, unit
+
+from prt_addon.core.lights import extraction as lights
+from prt_addon.core.sh.projection import pixel_solid_angles
 
 HEIGHT, WIDTH = 256, 512
 
@@ -30,7 +30,8 @@ def test_the_compact_term_keeps_the_bright_texels_within_the_budget():
     (no light)."""
     image = sky_with_discs([(unit(-60.0, 30.0), np.radians(30.0), 50.0)], height=HEIGHT, width=WIDTH)
     mean = mean_luminance(image)
-    assert lights.MEAN_FACTOR * mean < 50.0 and lights.COMPACT_FRACTION == 0.1
+    assert lights.MEAN_FACTOR * mean < 50.0
+    assert lights.COMPACT_FRACTION == 0.1
     loose = lights.auto_threshold(image)
     assert loose == pytest.approx(lights.MEAN_FACTOR * mean, rel=1e-12)
     assert len(lights.extract_lights(image, loose)[1]) == 1

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 from scipy import integrate
-
-from prt_addon.core import lights
-from prt_addon.core.projection import pixel_directions, pixel_solid_angles
 from test_lights import HEIGHT, RADIUS, SUN, WIDTH, cap_solid_angle, sky_with_discs, unit
+
+from prt_addon.core.lights import extraction as lights, visibility as light_vis
+from prt_addon.core.sh.projection import pixel_directions, pixel_solid_angles
 
 
 @pytest.fixture(scope="module")
@@ -18,7 +18,7 @@ def sun_image():
 def test_disc_directions_fill_the_cap_around_the_centre(count):
     centre = unit(-70.0, 35.0)
     angle = np.radians(3.0)
-    dirs = lights.disc_directions(centre, angle, count)
+    dirs = light_vis.disc_directions(centre, angle, count)
     assert dirs.shape == (count, 3)
     np.testing.assert_allclose(np.linalg.norm(dirs, axis=1), 1.0, atol=1e-14)
     assert np.all(dirs @ centre >= np.cos(angle) - 1e-14)
@@ -35,7 +35,8 @@ class HalfPlane:
     """Occluder: the half-plane z = 1, y > 0 (the raytrace protocol, in numpy)."""
 
     def occluded(self, origins, directions):
-        assert origins.dtype == np.float32 and directions.dtype == np.float32
+        assert origins.dtype == np.float32
+        assert directions.dtype == np.float32
         o, d = origins.astype(np.float64), directions.astype(np.float64)
         with np.errstate(divide="ignore", invalid="ignore"):
             t = (1.0 - o[:, 2]) / d[:, 2]
@@ -64,7 +65,7 @@ def test_light_visibility_of_a_partly_hidden_disc():
     np.testing.assert_allclose(expected[[0, 3, -1]], [1.0, 0.5, 0.0], atol=1e-12)
     # A straight edge across N stratified samples: error ~ N^(-3/4) (0.016 at 256, 0.006 at 1024).
     for rays, tolerance in ((256, 0.03), (1024, 0.012)):
-        seen = lights.light_visibility(points, normals, [light], HalfPlane(), rays_per_light=rays)
+        seen = light_vis.light_visibility(points, normals, [light], HalfPlane(), rays_per_light=rays)
         assert seen.shape == (len(y0), 1)
         np.testing.assert_allclose(seen[:, 0], expected, atol=tolerance)
 
@@ -79,7 +80,7 @@ def test_light_visibility_at_the_horizon():
     grazing = lights.Light(direction=unit(0.0, 2.0), power=[1.0] * 3, angle=angle)
     below = lights.Light(direction=unit(0.0, -1.0), power=[1.0] * 3, angle=angle)
     sharp = lights.Light(direction=unit(0.0, 30.0), power=[1.0] * 3, angle=0.0)
-    seen = lights.light_visibility(
+    seen = light_vis.light_visibility(
         np.zeros((1, 3)), [[0.0, 0.0, 1.0]], [grazing, below, sharp], Nothing(), rays_per_light=512
     )
     # Part of the grazing disc is below the tangent plane: the free fraction is the cap's share
@@ -91,7 +92,8 @@ def test_light_visibility_at_the_horizon():
     elevation = np.radians(2.0)  # z of a cap point about the axis (cos e, 0, sin e)
     z = cos_theta * np.sin(elevation) + sin_theta * np.cos(phi) * np.cos(elevation)
     assert abs(seen[0, 0] - (z > 0).mean()) < 0.02
-    assert seen[0, 1] == 0.0 and seen[0, 2] == 1.0
+    assert seen[0, 1] == 0.0
+    assert seen[0, 2] == 1.0
 
 
 def test_light_irradiance_closed_form_and_texel_sum(sun_image):
@@ -99,12 +101,12 @@ def test_light_irradiance_closed_form_and_texel_sum(sun_image):
     rng = np.random.default_rng(5)
     normals = rng.normal(size=(200, 3))
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    shown = lights.light_irradiance(normals, found)
+    shown = light_vis.light_irradiance(normals, found)
     closed = found[0].power[None] / np.pi * np.maximum(0.0, normals @ found[0].direction)[:, None]
     np.testing.assert_allclose(shown, closed, rtol=1e-12, atol=1e-12)
     visibility = rng.random((200, 1))
     np.testing.assert_allclose(
-        lights.light_irradiance(normals, found, visibility), closed * visibility, rtol=1e-12, atol=1e-12
+        light_vis.light_irradiance(normals, found, visibility), closed * visibility, rtol=1e-12, atol=1e-12
     )
     # Same unit as the transfer max(0, n . w) / pi: the excess summed texel by texel.
     excess = (sun_image.astype(np.float64) - residual) * pixel_solid_angles(HEIGHT, WIDTH)[:, None, None]
@@ -112,5 +114,5 @@ def test_light_irradiance_closed_form_and_texel_sum(sun_image):
     facing = normals @ found[0].direction > 0.2
     brute = np.maximum(0.0, normals[facing] @ dirs.T) / np.pi @ excess.reshape(-1, 3)
     np.testing.assert_allclose(shown[facing], brute, rtol=2e-3)
-    assert np.all(lights.light_irradiance(np.zeros((3, 3)), found) == 0.0)
-    assert lights.light_irradiance(normals, []).shape == (200, 3)
+    assert np.all(light_vis.light_irradiance(np.zeros((3, 3)), found) == 0.0)
+    assert light_vis.light_irradiance(normals, []).shape == (200, 3)

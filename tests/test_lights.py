@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from prt_addon.core import lights
-from prt_addon.core.projection import pixel_directions, pixel_solid_angles, project_equirect
-from prt_addon.core.sh import sh_basis
+from prt_addon.core.lights import extraction as lights
+from prt_addon.core.sh.basis import sh_basis
+from prt_addon.core.sh.projection import pixel_directions, pixel_solid_angles, project_equirect
 
 HEIGHT, WIDTH = 512, 1024
 Y0 = 1.0 / (2.0 * np.sqrt(np.pi))
@@ -81,7 +81,8 @@ def test_one_disc_gives_one_light_with_its_power_direction_and_radius(sun_image)
     expected = (1000.0 - threshold) * cap_solid_angle(RADIUS)
     np.testing.assert_allclose(light.power, expected, rtol=5e-3)
     assert abs(light.angle / RADIUS - 1.0) < 0.2
-    assert light.texels > 0 and light.solid_angle > 0.9 * cap_solid_angle(RADIUS)
+    assert light.texels > 0
+    assert light.solid_angle > 0.9 * cap_solid_angle(RADIUS)
     lum = residual.astype(np.float64) @ lights.LUMA
     assert lum.max() <= threshold * (1 + 1e-6)
 
@@ -90,7 +91,8 @@ def test_rgba_and_rgb_give_the_same_lights(sun_image):
     rgba = np.concatenate([sun_image, np.full(sun_image.shape[:2] + (1,), 0.5, np.float32)], 2)
     residual, found = lights.extract_lights(rgba)
     residual_rgb, found_rgb = lights.extract_lights(sun_image)
-    assert residual.shape == sun_image.shape and residual.dtype == np.float32
+    assert residual.shape == sun_image.shape
+    assert residual.dtype == np.float32
     np.testing.assert_array_equal(residual, residual_rgb)
     np.testing.assert_array_equal(found[0].power, found_rgb[0].power)
 
@@ -120,7 +122,8 @@ def test_two_discs_120_degrees_apart_give_two_lights():
 def test_disc_across_the_seam_is_one_light():
     centre = unit(180.0, 10.0)  # phi = pi is u = 0: the disc is split between both image edges
     image = sky_with_discs([(centre, RADIUS, 1000.0)])
-    assert image[:, 0].max() > 500 and image[:, -1].max() > 500
+    assert image[:, 0].max() > 500
+    assert image[:, -1].max() > 500
     _, found = lights.extract_lights(image)
     assert len(found) == 1
     assert angle_between(found[0].direction, centre) < 0.2
@@ -143,7 +146,8 @@ def test_texels_of_a_pole_row_are_neighbours():
     image[0, [0, 64]] = 1e4
     _, found = lights.extract_lights(image, threshold=10.0, min_share=0.0)
     assert len(found) == 2
-    assert found[0].direction[2] > 0.99 and found[1].direction[2] < -0.99
+    assert found[0].direction[2] > 0.99
+    assert found[1].direction[2] < -0.99
 
 
 def sphere_components_reference(mask):
@@ -274,7 +278,8 @@ def test_bad_pixels_follow_the_projection_policy(sun_image):
     image[30, 30, 0] = -5.0
     residual, found = lights.extract_lights(image)
     assert len(found) == 1
-    assert np.isnan(residual[10, 10]).all() and np.isinf(residual[20, 20, 1])
+    assert np.isnan(residual[10, 10]).all()
+    assert np.isinf(residual[20, 20, 1])
     original, _ = project_equirect(image, 1)
     split, _ = project_equirect(residual, 1)
     np.testing.assert_allclose(split[0] + found[0].power * Y0, original[0], rtol=1e-9)
@@ -305,13 +310,15 @@ def test_rotating_lights_matches_rotating_the_image():
 def test_lights_array_round_trip(sun_image):
     _, found = lights.extract_lights(sun_image)
     values = lights.lights_to_array(found)
-    assert isinstance(values, list) and len(values) == 7 * len(found)
+    assert isinstance(values, list)
+    assert len(values) == 7 * len(found)
     back = lights.lights_from_array(values)
     for a, b in zip(found, back, strict=True):
         np.testing.assert_allclose(a.direction, b.direction, atol=1e-15)
         np.testing.assert_array_equal(a.power, b.power)
         assert a.angle == b.angle
-    assert lights.lights_from_array([]) == [] and lights.lights_to_array([]) == []
+    assert lights.lights_from_array([]) == []
+    assert lights.lights_to_array([]) == []
     with pytest.raises(ValueError):
         lights.lights_from_array(values[:-1])
     with pytest.raises(ValueError):

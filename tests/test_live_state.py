@@ -9,7 +9,7 @@ import pytest
 
 pytestmark = pytest.mark.blender
 
-from test_world import add_mapping, float_image, image_of, known_coeffs, new_world, use_image  # noqa: E402
+from test_world import add_mapping, float_image, image_of, known_coeffs, new_world, use_image
 
 
 def _image_world(bpy, scene, order=5):
@@ -74,7 +74,7 @@ def test_display_and_rotation_control_follow_the_same_node(bpy_module, empty_sce
     """The display's light (with or without a test override) and the sidebar control resolve the
     Mapping node through the reroute like the projection does."""
     from prt_addon import api
-    from prt_addon.blender.display import lighting
+    from prt_addon.blender.scene import lighting
     from prt_addon.blender.world import nodes
 
     world, env = _image_world(bpy_module, empty_scene)
@@ -91,8 +91,7 @@ def test_display_and_rotation_control_follow_the_same_node(bpy_module, empty_sce
 
 
 def test_bake_follows_blenders_thread_setting(bpy_module, empty_scene):
-    from prt_addon.blender.bake import job as bake_job
-    from prt_addon.blender.bake import settings as bake_settings
+    from prt_addon.blender.bake import job as bake_job, settings as bake_settings
 
     bpy = bpy_module
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1)
@@ -102,7 +101,8 @@ def test_bake_follows_blenders_thread_setting(bpy_module, empty_scene):
     render.threads = 3
     job = bake_job.BakeJob([sphere], bake_settings.BakeSettings(order=2, samples=16))
     try:
-        assert job.settings.threads == 3 and job._pool._max_workers == 3
+        assert job.settings.threads == 3
+        assert job._pool._max_workers == 3
     finally:
         job.close()
     render.threads_mode = "AUTO"
@@ -122,7 +122,7 @@ def test_bake_follows_blenders_thread_setting(bpy_module, empty_scene):
 
 def test_a_record_from_a_newer_format_is_not_misread(bpy_module, empty_scene):
     from prt_addon import api
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     bpy = bpy_module
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1)
@@ -131,13 +131,15 @@ def test_a_record_from_a_newer_format_is_not_misread(bpy_module, empty_scene):
     assert api.bake_status(sphere) == "fresh"
     sphere.data["prt_bake"]["version"] = storage.FORMAT_VERSION + 1
     state, reason = api.bake_status(sphere, reason=True)
-    assert state == "stale" and "newer version" in reason and "bake again" in reason
+    assert state == "stale"
+    assert "newer version" in reason
+    assert "bake again" in reason
     assert storage.usable_bake(sphere.data) == (None, storage.read_bake_record(sphere.data)[1])
     assert storage.read_transfer(sphere.data) is None
 
 
 def test_fingerprint_cache_does_not_survive_a_file_load(bpy_module, empty_scene, tmp_path):
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
 
     bpy = bpy_module
     storage._fingerprint_cache[(1, 2, 3, 4, 200_000)] = "stale"

@@ -24,7 +24,7 @@ def _mesh(bpy, name, vertices, faces):
 
 def _flips(mesh):
     """Per quad of the mesh: whether Blender's first split (0-2 diagonal) was replaced."""
-    from prt_addon.blender import mesh_read
+    from prt_addon.blender.scene import mesh_read
 
     triangles = _loop_triangles(mesh)
     corner_verts = mesh_read.read_corner_verts(mesh)
@@ -39,7 +39,7 @@ def test_read_triangles_matches_loop_triangles_on_quads_and_triangles(empty_scen
     """Random non-planar quads (about half of them take Blender's flipped split), darts concave
     at either corner, degenerate quads (a repeated point, collinear points, all one point) and
     triangles, mixed in one mesh: the same triangles in the same order as mesh.loop_triangles."""
-    from prt_addon.blender import mesh_read
+    from prt_addon.blender.scene import mesh_read
 
     bpy = bpy_module
     rng = np.random.default_rng(7)
@@ -59,7 +59,8 @@ def test_read_triangles_matches_loop_triangles_on_quads_and_triangles(empty_scen
     add([(1, 2, 3)] * 4)  # one point
     mesh = _mesh(bpy, "mixed", vertices, faces)
     flips = _flips(mesh)
-    assert 0.2 < flips.mean() < 0.8 and flips[-5:-3].all()  # both splits are exercised
+    assert 0.2 < flips.mean() < 0.8
+    assert flips[-5:-3].all()
     np.testing.assert_array_equal(mesh_read.read_triangles(mesh), _loop_triangles(mesh))
 
     # Shared vertices: a subdivided, noisy grid (quads only) and a subdivided Suzanne.
@@ -80,7 +81,7 @@ def test_read_triangles_matches_loop_triangles_on_quads_and_triangles(empty_scen
 def test_read_triangles_with_ngons_and_without_faces(empty_scene, bpy_module, addon):
     """N-gons (here a concave hexagon and a cylinder's caps) are read from loop_triangles; a mesh
     without faces has no triangles."""
-    from prt_addon.blender import mesh_read
+    from prt_addon.blender.scene import mesh_read
 
     bpy = bpy_module
     hexagon = [(0, 0, 0), (2, 0, 0), (2, 2, 0), (1, 0.5, 0), (0, 2, 0), (-0.5, 1, 0)]
@@ -97,7 +98,7 @@ def test_read_triangles_with_ngons_and_without_faces(empty_scene, bpy_module, ad
 def test_flat_grid_with_rounded_normals_bakes_per_vertex(empty_scene, bpy_module, addon):
     """A flat-shaded grid's face normals come out as (0, 0, 1) or (0, 0, 0.99999994) depending
     on the face; still one normal per vertex, so one bake point per vertex (POINT)."""
-    from prt_addon.blender import mesh_read
+    from prt_addon.blender.scene import mesh_read
 
     bpy = bpy_module
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=150, y_subdivisions=150, size=8)
@@ -106,14 +107,15 @@ def test_flat_grid_with_rounded_normals_bakes_per_vertex(empty_scene, bpy_module
     normals = mesh_read.read_corner_normals(mesh)
     assert len(np.unique(normals, axis=0)) > 1  # not bit-identical: the case under test
     points = mesh_read.bake_points(mesh, np.eye(4))
-    assert points.domain == "POINT" and len(points.positions) == len(mesh.vertices)
+    assert points.domain == "POINT"
+    assert len(points.positions) == len(mesh.vertices)
     np.testing.assert_allclose(points.normals, np.tile([0.0, 0.0, 1.0], (len(mesh.vertices), 1)), atol=1e-6)
 
 
 def test_vertex_normal_pairs_merges_only_within_tolerance():
     """Corner normals of one vertex within NORMAL_TOLERANCE are one pair; farther ones, and the
     same normal at another vertex, stay separate; inverse maps each corner to its pair."""
-    from prt_addon.core import mesh as core_mesh
+    from prt_addon.core.transfer import mesh as core_mesh
 
     tol = core_mesh.NORMAL_TOLERANCE
     up = np.array([0.0, 0.0, 1.0], np.float32)
@@ -135,7 +137,7 @@ def test_vertex_normal_pairs_merges_only_within_tolerance():
 def test_read_face_materials_from_the_attribute_and_without_it(empty_scene, bpy_module, addon):
     """The faces' material slots read from the material_index attribute equal mesh.polygons';
     a mesh that never had slots assigned (no attribute) reads slot 0 everywhere."""
-    from prt_addon.blender import mesh_read as mesh_io
+    from prt_addon.blender.scene import mesh_read as mesh_io
 
     bpy = bpy_module
     mesh = _mesh(bpy, "slots", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (2, 0, 0)], [(0, 1, 2, 3), (1, 4, 2)])

@@ -1,19 +1,20 @@
-"""The GGX cube-map prefilter and the RGBD PNG encoding (core.prefilter, core.rgbd_png) against independent expectations."""
+"""The GGX cube-map prefilter and the RGBD PNG encoding (core.ibl.prefilter, core.ibl.rgbd_png) against independent expectations."""
 
 import struct
 import zlib
 
 import numpy as np
 import pytest
-
 from conftest import random_directions
-from prt_addon.core import directions, prefilter, projection, rgbd_png, sh
+
+from prt_addon.core.ibl import prefilter, rgbd_png
+from prt_addon.core.sh import basis as sh, directions, projection
 
 
 def test_face_directions_by_hand():
     """Texel centres of a 2x2 cube: WebGL's face table, rows by t, columns by s."""
     d = prefilter.face_directions(2)
-    unit = lambda v: np.array(v, dtype=np.float64) / np.linalg.norm(v)  # noqa: E731
+    unit = lambda v: np.array(v, dtype=np.float64) / np.linalg.norm(v)
     # face, row (t), column (s) -> direction, from the table (s, t = -0.5 or 0.5)
     cases = {
         (0, 0, 0): (1, 0.5, 0.5),  # +X: (1, -t, -s)
@@ -33,7 +34,9 @@ def test_direction_to_texel_inverts_face_directions(size):
     d = prefilter.face_directions(size)
     face, row, column = prefilter.direction_to_texel(d, size)
     idx = np.indices((6, size, size))
-    assert (face == idx[0]).all() and (row == idx[1]).all() and (column == idx[2]).all()
+    assert (face == idx[0]).all()
+    assert (row == idx[1]).all()
+    assert (column == idx[2]).all()
 
 
 def test_texel_solid_angles():
@@ -66,7 +69,9 @@ def test_ggx_weight_is_the_textbook_lobe():
 def test_babylon_alphas():
     """Mip k of a 128 chain: alpha = 2^k / 128 (0 at mip 0), i.e. Babylon's lod = log2(N0 alpha)."""
     a = prefilter.babylon_alphas(128)
-    assert len(a) == 8 and a[0] == 0.0 and a[-1] == 1.0
+    assert len(a) == 8
+    assert a[0] == 0.0
+    assert a[-1] == 1.0
     assert np.allclose(np.log2(128 * a[1:]), np.arange(1, 8))
     with pytest.raises(ValueError):
         prefilter.babylon_alphas(96)
@@ -152,7 +157,8 @@ def test_rgbd_round_trip_and_range():
     assert (np.abs(back - rgb).max(axis=1) / v).max() < 0.04
     enc = rgbd_png.rgbd_encode([[0.5, 0.2, 0.1], [1000.0, 1.0, 0.0], [-1.0, np.nan, np.inf]])
     assert enc[0, 3] == 255  # values up to 1: D = 1
-    assert enc[1, 0] == 255 and enc[1, 3] == 1  # the largest D divisor, 1/255
+    assert enc[1, 0] == 255
+    assert enc[1, 3] == 1
     assert rgbd_png.rgbd_decode(enc[1])[0] == pytest.approx(255.0)  # clipped to the largest value
     assert tuple(enc[2, :3]) == (0, 0, 0)
 
@@ -197,7 +203,8 @@ def test_png_round_trip():
 def test_symmetry_indices_move_texels_with_their_directions(size):
     d = prefilter.face_directions(size).reshape(-1, 3)
     groups = prefilter.cube_symmetries()
-    assert len(groups) == 48 and len({g.tobytes() for g in groups}) == 48
+    assert len(groups) == 48
+    assert len({g.tobytes() for g in groups}) == 48
     for g in groups:
         idx = prefilter.symmetry_indices(g, size)
         assert np.allclose(d[idx], d @ g.T)

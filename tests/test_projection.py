@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from prt_addon import api
-from prt_addon.core import projection, sh
+from prt_addon.core.sh import basis as sh, projection
 
 
 def test_pixel_solid_angles_sum_to_4pi():
@@ -75,7 +75,7 @@ def test_synthesised_image_projects_back():
 
 def test_projection_of_image_equals_projection_of_rotated_image_about_z():
     """Turning the image by whole columns is a rotation about Z: the SH rotation must agree."""
-    from prt_addon.core import rotation
+    from prt_addon.core.sh import rotation
 
     rng = np.random.default_rng(3)
     image = rng.random((32, 64, 3))
@@ -115,7 +115,7 @@ def test_grey_and_bad_shapes():
 
 def test_sun_disk_projection_matches_analytic_cap():
     """A bright sun painted into a 1024x512 image projects to the analytic cap to pixel accuracy."""
-    from prt_addon.core import analytic
+    from prt_addon.core.sh import analytic
 
     height, width, order = 512, 1024, 8
     alpha = np.radians(5.0)

@@ -1,5 +1,5 @@
 """The Embree occluder's two ways of giving Embree the triangles: shared buffers (read in place,
-core.embree_buffers) and embreex's own copying TriangleMesh."""
+core.trace.embree_buffers) and embreex's own copying TriangleMesh."""
 
 import glob
 import os
@@ -10,7 +10,7 @@ import textwrap
 import numpy as np
 import pytest
 
-from prt_addon.core import embree_buffers, raytrace
+from prt_addon.core.trace import embree_buffers, raytrace
 
 pytestmark = pytest.mark.skipif(not raytrace.EMBREE_AVAILABLE, reason="embreex not installed")
 
@@ -57,7 +57,8 @@ def test_square_occludes_exactly_the_rays_through_it():
         occluder = raytrace.EmbreeOccluder(vertices, triangles, shared=shared)
         hit = occluder.occluded(origins.astype(np.float32), directions.astype(np.float32))
         np.testing.assert_array_equal(hit[clear], inside[clear])
-        assert inside[clear].sum() > 1000 and (~inside[clear]).sum() > 1000
+        assert inside[clear].sum() > 1000
+        assert (~inside[clear]).sum() > 1000
 
 
 def test_shared_and_copied_geometry_trace_identically():

@@ -2,10 +2,10 @@
 
 import numpy as np
 import pytest
-
 from conftest import random_directions
+
 from prt_addon import api
-from prt_addon.core import directions, rotation, sh
+from prt_addon.core.sh import basis as sh, directions, rotation
 
 ORDER = 12
 
@@ -51,7 +51,7 @@ def test_rotated_coefficients_evaluate_to_the_function_at_inverse_rotated_direct
 
 def test_zonal_function_rotated_to_an_axis():
     """Rotating the clamped cosine about +Z onto n gives the clamped cosine about n."""
-    from prt_addon.core import analytic
+    from prt_addon.core.sh import analytic
 
     n = np.array([0.6, 0.0, -0.8])
     # A rotation taking +Z to n: about the Y axis by the angle between them.

@@ -2,10 +2,10 @@
 
 import numpy as np
 import pytest
+from conftest import random_directions
 from scipy.special import eval_legendre, sph_harm_y
 
-from conftest import random_directions
-from prt_addon.core import analytic, sh
+from prt_addon.core.sh import analytic, basis as sh
 
 
 def gauss_product_grid(order):

@@ -1,12 +1,12 @@
-"""The viewport's shadow views of the split lights (core.shadow_views): which lights get several
+"""The viewport's shadow views of the split lights (core.lights.shadow_views): which lights get several
 maps, how their samples are shared out, and that the shading they stand for is the light's."""
 
 import numpy as np
 import pytest
 
-from prt_addon.core import light_samples
-from prt_addon.core.lights import Light
-from prt_addon.core.shadow_views import MAX_WIDE_VIEWS, WIDE_ANGLE, shadow_views
+from prt_addon.core.lights import samples as light_samples
+from prt_addon.core.lights.extraction import Light
+from prt_addon.core.lights.shadow_views import MAX_WIDE_VIEWS, WIDE_ANGLE, shadow_views
 
 
 def spread_light(degrees, count=16, centre=(0.2, -0.4, 1.0), seed=0):
@@ -35,7 +35,8 @@ def test_a_sun_and_a_disc_light_get_one_view_each():
     np.testing.assert_allclose(views[0].weights, sun.weights, rtol=1e-15)
     np.testing.assert_allclose(views[0].direction, sun.direction / np.linalg.norm(sun.direction))
     np.testing.assert_array_equal(views[1].samples, [[0.0, 0.0, 1.0]])
-    assert views[1].weights.tolist() == [1.0] and views[1].angle == 0.3
+    assert views[1].weights.tolist() == [1.0]
+    assert views[1].angle == 0.3
     assert views[0].angle == light_samples.shadow_angle(sun)
 
 
@@ -49,7 +50,8 @@ def test_the_wide_angle_is_the_boundary():
 def test_a_wide_light_gets_one_view_per_sample():
     light = spread_light(30.0)
     views = shadow_views([light])
-    assert len(views) == 16 and all(v.wide and v.light == 0 for v in views)
+    assert len(views) == 16
+    assert all(v.wide and v.light == 0 for v in views)
     dirs = np.array([v.samples[0] for v in views])
     order = np.lexsort(dirs.T)
     want = light.samples / np.linalg.norm(light.samples, axis=1, keepdims=True)
@@ -106,7 +108,7 @@ def test_power_cells_keep_the_region_samples():
 def test_the_wide_maps_follow_the_scenes_triangles():
     """WIDE_TRIANGLES // triangles maps in all, between 1 and MAX_WIDE_VIEWS; shared by the wide
     lights, each keeping at least one (then it is drawn as a compact light is, from one map)."""
-    from prt_addon.core.shadow_views import WIDE_TRIANGLES, wide_view_budget
+    from prt_addon.core.lights.shadow_views import WIDE_TRIANGLES, wide_view_budget
 
     assert wide_view_budget(1) == MAX_WIDE_VIEWS
     assert wide_view_budget(WIDE_TRIANGLES // MAX_WIDE_VIEWS) == MAX_WIDE_VIEWS
@@ -116,5 +118,6 @@ def test_the_wide_maps_follow_the_scenes_triangles():
     lights = [spread_light(30.0, seed=1), spread_light(25.0, centre=(1.0, 0.0, 0.3), seed=2)]
     assert [len(shadow_views(lights, max_wide_views=b)) for b in (32, 8, 4, 3, 1)] == [32, 8, 4, 2, 2]
     single = shadow_views(lights[:1], max_wide_views=1)[0]
-    assert single.wide and len(single.weights) == 16
+    assert single.wide
+    assert len(single.weights) == 16
     assert single.angle == pytest.approx(light_samples.shadow_angle(lights[0]), rel=1e-12)

@@ -8,11 +8,10 @@ import math
 
 import numpy as np
 import pytest
+from conftest import bundled_hdri_path
 
 from benchmarks import windows
-from prt_addon.core import analytic, projection
-
-from conftest import bundled_hdri_path
+from prt_addon.core.sh import analytic, projection
 
 pytestmark = pytest.mark.blender
 
@@ -73,7 +72,7 @@ def _check(objs, scene, order):
     """Shade at `order` (lighting projected at that order, transfer truncated by the display):
     finite and >= 0. Returns the unclamped minimum over the mean (to show the clamp matters)."""
     from prt_addon import api
-    from prt_addon.blender import storage
+    from prt_addon.blender.scene import storage
     from prt_addon.blender.world import projection as world_projection
 
     api.project_world(scene, order, split_lights=False)  # the SH path alone
@@ -108,7 +107,7 @@ def test_bundled_sunny_hdris_shade_non_negative_and_finite(bpy_module, stiff_sce
         assert min(lows) < 0.0  # these rings without the clamp: the clamp is doing the work
 
 
-@pytest.mark.parametrize("half_angle, value", [(0.5, 1e6), (1.0, 1e5), (5.0, 1e4), (5.0, 1e6)])
+@pytest.mark.parametrize(("half_angle", "value"), [(0.5, 1e6), (1.0, 1e5), (5.0, 1e4), (5.0, 1e6)])
 def test_synthetic_suns_shade_non_negative_and_finite(bpy_module, stiff_scene, half_angle, value):
     scene, objs = stiff_scene
     _world(bpy_module, scene, _sun_image(bpy_module, half_angle, value))
@@ -129,4 +128,5 @@ def test_windows_never_produce_nan_or_inf_on_suns():
                 assert np.all(np.isfinite(windows.apply_window(c, w)))
             if order <= 8:
                 res = windows.auto_window(c, "LAPLACIAN")
-                assert np.all(np.isfinite(res.weights)) and res.min_value_after >= -1e-6 * c[0, 0]
+                assert np.all(np.isfinite(res.weights))
+                assert res.min_value_after >= -1e-6 * c[0, 0]

@@ -1,16 +1,18 @@
-"""Transfer projection (prt_addon.core.transfer) against closed forms: values, error estimate, local frame.
+"""Transfer projection (prt_addon.core.transfer.quadrature) against closed forms: values, error estimate, local frame.
 
 The analytic occluders here (plane, wall, cup) serve tests/test_transfer_tracing.py too.
 Pure numpy (+ embreex when installed), no bpy."""
 
 import numpy as np
 import pytest
-
-from prt_addon.core import analytic, raytrace, sh, transfer
-from prt_addon.core.analytic import _zonal_integral
-from prt_addon.core.directions import make_directions
-from prt_addon.core.rotation import axis_angle_matrix
 from conftest import random_directions
+
+from prt_addon.core.sh import analytic, basis as sh, frames
+from prt_addon.core.sh.analytic import _zonal_integral
+from prt_addon.core.sh.directions import make_directions
+from prt_addon.core.sh.rotation import axis_angle_matrix
+from prt_addon.core.trace import raytrace
+from prt_addon.core.transfer import quadrature as transfer
 
 ORDER = 4
 Y00 = 1.0 / np.sqrt(4.0 * np.pi)
@@ -103,7 +105,8 @@ def test_plane_vertex_shadowed_equals_unshadowed_equals_clamped_cosine():
     shadowed = transfer.compute_transfer(point, normal[None], dirs, ORDER, plane, offset=1e-4)
     unshadowed = transfer.compute_transfer(point, normal[None], dirs, ORDER, None)
     above = int(np.count_nonzero(dirs.directions @ normal > 0))
-    assert shadowed.stats.rays_traced == above and shadowed.stats.occluded_rays == 0
+    assert shadowed.stats.rays_traced == above
+    assert shadowed.stats.occluded_rays == 0
     np.testing.assert_array_equal(shadowed.coeffs, unshadowed.coeffs)
     expected = analytic.clamped_cosine_coeffs(ORDER, normal)
     np.testing.assert_allclose(shadowed.coeffs[0], expected, atol=2e-5)
@@ -122,7 +125,8 @@ def test_wall_matches_closed_form_visible_fraction():
     tall = transfer.compute_transfer(np.zeros((1, 3)), up, dirs, ORDER, WallOccluder(d, 1e9), offset=1e-6)
     assert tall.coeffs[0, 0] == pytest.approx(0.5 * Y00, abs=5e-4)
     # And by symmetry y_(1,-1) (odd in y) vanishes while y_(1,1) (x) is negative (wall at +x).
-    assert abs(tall.coeffs[0, 1]) < 1e-3 and tall.coeffs[0, 3] < -0.1
+    assert abs(tall.coeffs[0, 1]) < 1e-3
+    assert tall.coeffs[0, 3] < -0.1
 
 
 def test_cup_matches_closed_form_coefficients():
@@ -166,10 +170,12 @@ def test_embree_cup_mesh_matches_closed_form():
     np.testing.assert_allclose(res.coeffs[0], cup_coeffs(ORDER, np.pi / 4), atol=3e-3)
 
 
-@pytest.mark.parametrize("kind, lo, hi", [("UNIFORM", 0.7, 1.4), ("STRATIFIED", 0.7, 1.5), ("FIBONACCI", 0.5, 2.0)])
+@pytest.mark.parametrize(
+    ("kind", "lo", "hi"), [("UNIFORM", 0.7, 1.4), ("STRATIFIED", 0.7, 1.5), ("FIBONACCI", 0.5, 2.0)]
+)
 def test_error_estimate_tracks_true_error(kind, lo, hi):
     """RMS of |t_A - t_B| / 2 over 32 independent direction sets against the RMS true error, on
-    the cup (shadowed): unbiased for i.i.d. and stratified sets, calibrated for Fibonacci (core.transfer.error_calibration)."""
+    the cup (shadowed): unbiased for i.i.d. and stratified sets, calibrated for Fibonacci (core.transfer.quadrature.error_calibration)."""
     expected = cup_coeffs(ORDER, np.pi / 4)
     true, est = [], []
     for seed in range(32):
@@ -245,10 +251,10 @@ def test_local_frame_rotation_and_mirror():
     world = analytic.clamped_cosine_coeffs(order, normal)[None]
     rot = axis_angle_matrix((1, 2, 3), 0.7)
     linear = rot @ np.diag([2.0, 2.0, 2.0])
-    local = transfer.to_local_frame(world, linear)
+    local = frames.to_local_frame(world, linear)
     np.testing.assert_allclose(local[0], analytic.clamped_cosine_coeffs(order, rot.T @ normal), atol=1e-12)
     mirror = rot @ np.diag([-1.0, 1.0, 1.0])  # Q = mirror, local direction u maps to world Q u
-    local = transfer.to_local_frame(world, mirror * 3.0)
+    local = frames.to_local_frame(world, mirror * 3.0)
     np.testing.assert_allclose(local[0], analytic.clamped_cosine_coeffs(order, mirror.T @ normal), atol=1e-12)
 
 
@@ -259,7 +265,8 @@ def test_local_frame_of_many_rows_in_float32():
     normals = random_directions(2500, seed=4)
     world = np.array([analytic.clamped_cosine_coeffs(order, n) for n in normals], np.float32)
     rot = axis_angle_matrix((0.3, -1, 2), 1.1)
-    local = transfer.to_local_frame(world, rot * 0.5)
-    assert local.dtype == np.float32 and local.shape == world.shape
+    local = frames.to_local_frame(world, rot * 0.5)
+    assert local.dtype == np.float32
+    assert local.shape == world.shape
     expected = np.array([analytic.clamped_cosine_coeffs(order, rot.T @ n) for n in normals])
     np.testing.assert_allclose(local, expected, atol=1e-6)

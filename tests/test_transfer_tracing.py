@@ -6,10 +6,11 @@ import tracemalloc
 
 import numpy as np
 import pytest
-
-from prt_addon.core import raytrace, transfer
-from prt_addon.core.directions import make_directions
 from test_transfer import CupOccluder, PlaneOccluder
+
+from prt_addon.core.sh.directions import make_directions
+from prt_addon.core.trace import raytrace
+from prt_addon.core.transfer import quadrature as transfer
 
 
 def test_horizon_culling_and_counts():
@@ -35,7 +36,8 @@ def test_unoccludable_points_trace_nothing():
     # The point facing up sees nothing above its tangent plane; the one facing down is traced.
     up = int(np.count_nonzero(dirs.directions[:, 2] > 0))
     down = int(np.count_nonzero(dirs.directions[:, 2] < 0))
-    assert res.stats.rays_traced == down and res.stats.skipped_unoccludable == up
+    assert res.stats.rays_traced == down
+    assert res.stats.skipped_unoccludable == up
     free = transfer.compute_transfer(p, n, dirs, 3, None)
     np.testing.assert_array_equal(res.coeffs[0], free.coeffs[0])
 
@@ -125,7 +127,8 @@ def _box(lo=(-1, -1, -1), hi=(1, 1, 1)):
 
 def test_convexity_and_planarity_tests():
     v, t = _box()
-    assert raytrace.is_closed_convex(v, t) and raytrace.cannot_self_occlude(v, t)
+    assert raytrace.is_closed_convex(v, t)
+    assert raytrace.cannot_self_occlude(v, t)
     dented = v.copy()
     dented[6] = [0.2, 0.2, 0.2]  # pull one corner inside
     assert not raytrace.is_closed_convex(dented, t)
@@ -137,7 +140,8 @@ def test_convexity_and_planarity_tests():
     assert not raytrace.cannot_self_occlude(both_v, both_t)  # two bodies shadow each other
     grid = np.array([[x, y, 0.0] for y in range(3) for x in range(3)])
     gt = np.array([(0, 1, 4), (0, 4, 3), (1, 2, 5), (1, 5, 4), (3, 4, 7), (3, 7, 6), (4, 5, 8), (4, 8, 7)])
-    assert raytrace.is_planar(grid, gt) and raytrace.cannot_self_occlude(grid, gt)
+    assert raytrace.is_planar(grid, gt)
+    assert raytrace.cannot_self_occlude(grid, gt)
     bent = grid.copy()
     bent[8, 2] = 0.5
     assert not raytrace.cannot_self_occlude(bent, gt)

@@ -9,7 +9,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from prt_addon.core import frames, rotation, sh
+from prt_addon.core.sh import basis as sh, frames, rotation
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SH_ROTATION_JS = os.path.join(ROOT, "web", "src", "sh_rotation.js")
@@ -242,11 +242,11 @@ def test_viewer_matches_render_view(demo_scene, browser_tools, tmp_path, lights,
     api.render_view's at two lighting rotations; with the split lights (shadow maps on both
     sides) from the page loading the file; without them from a page with the .glb embedded, with
     a material's colour and a mirrored node."""
-    from prt_addon import api
-    from prt_addon.blender.display import lighting
-    from prt_addon.blender.export import glb as glb_module
-
     import bpy
+
+    from prt_addon import api
+    from prt_addon.blender.export import glb as glb_module
+    from prt_addon.blender.scene import lighting
 
     scene = demo_scene
     width, height = 480, 360

@@ -2,16 +2,15 @@
 
 import numpy as np
 import pytest
-
-from test_web import (  # noqa: F401 - fixtures
+from test_web import (
     COVERAGE_TOLERANCE,
     MEAN_TOLERANCE,
     P99_TOLERANCE,
     _compare,
     _run_viewer,
     _turns_and_references,
-    browser_tools,
-    demo_scene,
+    browser_tools,  # noqa: F401
+    demo_scene,  # noqa: F401
 )
 
 
@@ -19,9 +18,9 @@ from test_web import (  # noqa: F401 - fixtures
 @pytest.mark.gpu
 @pytest.mark.browser
 def test_viewer_draws_a_bounced_bake(demo_scene, browser_tools, tmp_path, capsys):  # noqa: F811
-    from prt_addon import api
-
     import bpy
+
+    from prt_addon import api
 
     scene = demo_scene
     suzanne, ground = scene.objects["Suzanne"], scene.objects["Ground"]

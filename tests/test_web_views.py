@@ -4,16 +4,15 @@ import dataclasses
 
 import numpy as np
 import pytest
-
-from test_web import (  # noqa: F401 - fixtures
+from test_web import (
     COVERAGE_TOLERANCE,
     MEAN_TOLERANCE,
     P99_TOLERANCE,
     _compare,
     _run_viewer,
     _turns_and_references,
-    browser_tools,
-    demo_scene,
+    browser_tools,  # noqa: F401
+    demo_scene,  # noqa: F401
 )
 from test_wide_shadows import cap_light
 
@@ -25,7 +24,7 @@ ANGLES = [0.0, 2.1]
 def _lights():
     """A wide light (16 samples over a 25 degree cap), a sun and a disc light without samples
     (image frame): one view per sample for the first, one view each for the others."""
-    from prt_addon.core.lights import Light
+    from prt_addon.core.lights.extraction import Light
 
     wide, _dirs = cap_light((-0.6, -0.5, 1.0), np.radians(25.0))
     sun, _ = cap_light((0.7, 0.2, 0.8), np.radians(1.0))
@@ -38,7 +37,7 @@ def _export(scene, path, lights):
     """Export with `lights` as the scene's split lights (lighting.set_lights_override, which the
     export reads like the projected ones); -> (path, the world lights the export saw)."""
     from prt_addon import api
-    from prt_addon.blender.display import lighting
+    from prt_addon.blender.scene import lighting
 
     lighting.set_lights_override(scene, lights)
     try:
@@ -55,14 +54,14 @@ def _file_lights(path):
 
 
 def test_the_export_writes_each_lights_shadow_views(demo_scene, tmp_path):  # noqa: F811
-    """Each light's `views` are core.shadow_views' of the scene's lights at the full budget, in the
+    """Each light's `views` are core.lights.shadow_views' of the scene's lights at the full budget, in the
     glTF frame: every sample of a light in exactly one of its views, a view's direction the
     normalised weighted mean of its samples (a wide light's) or the light's direction (a compact
     one's), its angle sqrt(m / k) of the light's shadow angle; a light without samples has one
     view with `samples` null."""
     from prt_addon.blender.export.gltf import BLENDER_TO_GLTF
-    from prt_addon.core.light_samples import shadow_angle
-    from prt_addon.core.shadow_views import shadow_views
+    from prt_addon.core.lights.samples import shadow_angle
+    from prt_addon.core.lights.shadow_views import shadow_views
 
     path, world = _export(demo_scene, tmp_path / "views.glb", _lights())
     lights = _file_lights(path)
@@ -71,7 +70,8 @@ def test_the_export_writes_each_lights_shadow_views(demo_scene, tmp_path):  # no
     written = [(index, view) for index, light in enumerate(lights) for view in light["views"]]
     assert len(written) == len(expected) == 16 + 1 + 1
     for (index, view), want in zip(written, expected, strict=True):
-        assert index == want.light and view["wide"] == want.wide
+        assert index == want.light
+        assert view["wide"] == want.wide
         np.testing.assert_allclose(view["direction"], BLENDER_TO_GLTF @ want.direction, atol=1e-15)
         assert view["angle"] == pytest.approx(want.angle, rel=1e-15)
         if view["samples"] is None:
@@ -108,8 +108,8 @@ def test_viewer_draws_a_wide_light_as_render_view(demo_scene, browser_tools, tmp
     maps) and its image is api.render_view's at two lighting rotations, to the split-lights test's
     tolerances. The same file without `views` (a file from before them) still loads and draws one
     view per light, which differs visibly from render_view where the wide light's shadow falls."""
-    from prt_addon.blender.display import lighting
     from prt_addon.blender.export import glb
+    from prt_addon.blender.scene import lighting
 
     scene = demo_scene
     width, height = 480, 360

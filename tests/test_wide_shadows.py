@@ -1,9 +1,8 @@
 """Wide lights in the display: a light split off a broad patch of sky shades through one shadow
-map per group of its samples (core.shadow_views), against traced visibility over the whole patch."""
+map per group of its samples (core.lights.shadow_views), against traced visibility over the whole patch."""
 
 import numpy as np
 import pytest
-
 from test_shadows import POWER, SKY, ground_pixels, ground_scene, render, set_suns  # noqa: F401
 
 pytestmark = [pytest.mark.blender, pytest.mark.gpu]
@@ -23,10 +22,10 @@ def cap_directions(centre, radius, count=4000):
 
 
 def cap_light(centre, radius):
-    """The Light extraction makes of a uniform cap: 16 power cells (core.light_samples), its
+    """The Light extraction makes of a uniform cap: 16 power cells (core.lights.samples), its
     moment radius (1 - cos R = 2 (1 - |mean|)) and its power-median angle; and the cap's directions."""
-    from prt_addon.core.light_samples import median_angle, region_samples
-    from prt_addon.core.lights import Light
+    from prt_addon.core.lights.extraction import Light
+    from prt_addon.core.lights.samples import median_angle, region_samples
 
     dirs = cap_directions(centre, radius)
     weights = np.full(len(dirs), 1.0 / len(dirs))
@@ -53,15 +52,17 @@ def test_wide_light_shadow_matches_traced_visibility_over_the_cap(bpy_module, gr
     over the shadow angle (the draw of compact lights) is measured too: it is 17 to 28 % off."""
     import prt_addon.api as api
     from prt_addon.blender.display import shadows
-    from prt_addon.core import shadow_views
-    from prt_addon.core.lights import Light, light_visibility
-    from prt_addon.core.raytrace import EmbreeOccluder
+    from prt_addon.core.lights import shadow_views
+    from prt_addon.core.lights.extraction import Light
+    from prt_addon.core.lights.visibility import light_visibility
+    from prt_addon.core.trace.raytrace import EmbreeOccluder
 
     scene, ground = ground_scene
     ground.data["prt_bake"]["shadows"] = True
     light, dirs = cap_light((0.5, -0.3, 1.0), np.radians(degrees))
     views = shadow_views.shadow_views([light])
-    assert len(views) == 16 and all(v.wide for v in views)
+    assert len(views) == 16
+    assert all(v.wide for v in views)
     set_suns(scene, [light])
     image = render(scene)
     shade = api.shade(ground, scene)
@@ -100,7 +101,7 @@ def test_a_heavier_scene_draws_fewer_wide_maps(bpy_module, ground_scene, monkeyp
     """With the triangle budget at four times the casters' triangles the wide light gets four
     maps (layers of the wide array), and its image stays near the sixteen-map one."""
     from prt_addon.blender.display import shadows
-    from prt_addon.core import shadow_views
+    from prt_addon.core.lights import shadow_views
 
     scene, _ground = ground_scene
     light, _dirs = cap_light((0.5, -0.3, 1.0), np.radians(25.0))

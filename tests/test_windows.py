@@ -1,4 +1,4 @@
-"""Tests of prt_addon.core.windows: SH ringing windows and the automatic parameter search.
+"""Tests of benchmarks/windows (not shipped in the add-on): SH ringing windows and the automatic parameter search.
 
 Expectations are computed independently of the module: closed-form window values typed in by
 hand, zonal test functions evaluated through the addition theorem with scipy's Legendre
@@ -16,7 +16,6 @@ from scipy.optimize import brentq
 from scipy.spatial import cKDTree
 from scipy.special import eval_legendre
 
-from prt_addon.core import sh
 from benchmarks.windows import (
     DEFAULT_TOL,
     apply_window,
@@ -24,6 +23,7 @@ from benchmarks.windows import (
     sphere_grid,
     window_weights,
 )
+from prt_addon.core.sh import basis as sh
 
 KINDS = ("HANNING", "LANCZOS", "LAPLACIAN")
 AXIS = np.array([0.3, -0.5, 0.81]) / np.linalg.norm([0.3, -0.5, 0.81])  # generic direction
@@ -82,7 +82,7 @@ def sun_case(order):
 
 
 @pytest.mark.parametrize(
-    "kind, param",
+    ("kind", "param"),
     [
         ("NONE", None),
         ("HANNING", None),
@@ -98,7 +98,8 @@ def sun_case(order):
 @pytest.mark.parametrize("order", [1, 2, 5, 16])
 def test_band_zero_weight_is_one(kind, param, order):
     w = window_weights(kind, order, param)
-    assert w.shape == (order,) and w.dtype == np.float64
+    assert w.shape == (order,)
+    assert w.dtype == np.float64
     assert w[0] == 1.0
 
 
@@ -152,7 +153,7 @@ def test_laplacian_closed_form_and_monotone():
 
 
 @pytest.mark.parametrize(
-    "kind, param",
+    ("kind", "param"),
     [
         ("GAUSS", None),
         (None, None),

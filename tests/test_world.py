@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from prt_addon.core import projection, rotation, sh
+from prt_addon.core.sh import basis as sh, projection, rotation
 
 pytestmark = pytest.mark.blender
 
@@ -97,8 +97,10 @@ def test_constant_colour_world_is_exact(bpy_module, empty_scene):
     np.testing.assert_allclose(c[0], SQRT_4PI * 2.5 * np.array([0.2, 0.5, 1.5]), rtol=1e-6)
     assert np.all(c[1:] == 0.0)
     settings = empty_scene.prt_world
-    assert settings.stored_order == 5 and settings.source_kind == "COLOR"
-    assert settings.truncation == 0.0 and settings.seconds > 0.0
+    assert settings.stored_order == 5
+    assert settings.source_kind == "COLOR"
+    assert settings.truncation == 0.0
+    assert settings.seconds > 0.0
 
 
 @pytest.mark.parametrize("size", [(1, 1), (7, 3), (300, 150)])
@@ -174,7 +176,7 @@ def test_mapping_zero_and_quarter_turn_about_z_match_shifted_image(bpy_module, e
 
 
 @pytest.mark.parametrize(
-    "euler, vector_type",
+    ("euler", "vector_type"),
     [
         ((0.0, 0.0, 37.0), "POINT"),
         ((0.0, 0.0, 37.0), "TEXTURE"),
@@ -203,7 +205,8 @@ def test_mapping_rotation_matches_projecting_a_rotated_image(bpy_module, empty_s
     scale = np.abs(c).max()
     np.testing.assert_allclose(out, expected, atol=4e-4 * scale)
     settings = empty_scene.prt_world
-    assert settings.mapping_node and settings.mapping_type == vector_type
+    assert settings.mapping_node
+    assert settings.mapping_type == vector_type
     # The stored coefficients are the unrotated ones.
     from prt_addon.blender.world import projection as world_projection
 
@@ -246,9 +249,11 @@ def test_mapping_location_or_non_uniform_scale_is_not_ignored(bpy_module, empty_
     assert world_nodes.analyse_world(empty_scene).kind == "IMAGE"
     mapping.inputs["Location"].default_value = (0.0, 0.5, 0.0)
     source = world_nodes.analyse_world(empty_scene)
-    assert source.kind == "RENDER" and "location" in source.reason
+    assert source.kind == "RENDER"
+    assert "location" in source.reason
     mapping.vector_type = "VECTOR"  # a vector mapping ignores location
     assert world_nodes.analyse_world(empty_scene).kind == "IMAGE"
     mapping.inputs["Scale"].default_value = (1.0, 1.0, -1.0)
     source = world_nodes.analyse_world(empty_scene)
-    assert source.kind == "RENDER" and "scale" in source.reason
+    assert source.kind == "RENDER"
+    assert "scale" in source.reason

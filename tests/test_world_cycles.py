@@ -22,10 +22,9 @@ import math
 
 import numpy as np
 import pytest
-
-from prt_addon.core import analytic, projection, rotation, sh
-
 from conftest import bundled_hdri_path
+
+from prt_addon.core.sh import analytic, basis as sh, projection, rotation
 
 pytestmark = [pytest.mark.blender, pytest.mark.cycles]
 
@@ -139,7 +138,7 @@ def check_against_cycles(bpy, scene, coeffs, normals, baked, reference=None):
 
 
 @pytest.mark.parametrize(
-    "name, order, euler, vector_type",
+    ("name", "order", "euler", "vector_type"),
     [
         ("forest", 8, None, "POINT"),
         ("forest", 8, (30.0, 20.0, 37.0), "POINT"),
@@ -193,9 +192,11 @@ def test_sky_texture_world_is_rendered_and_agrees_with_cycles(bpy_module, empty_
     world.node_tree.links.new(sky.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
     coeffs = api.project_world(empty_scene, 8, split_lights=False)
     settings = empty_scene.prt_world
-    assert settings.source_kind == "RENDER" and "Sky Texture" in settings.message
+    assert settings.source_kind == "RENDER"
+    assert "Sky Texture" in settings.message
     # The temporary scene, camera and world copy are gone.
-    assert len(bpy_module.data.scenes) == 1 and len(bpy_module.data.worlds) == 1
+    assert len(bpy_module.data.scenes) == 1
+    assert len(bpy_module.data.worlds) == 1
     assert len(bpy_module.data.cameras) == 0
     obj = add_sphere(bpy_module, empty_scene)
     normals, baked = bake_sphere(bpy_module, empty_scene, obj)
@@ -212,7 +213,8 @@ def test_render_fallback_matches_direct_projection(bpy_module, empty_scene):
     hdri_world(bpy_module, empty_scene, "forest", (0.0, 30.0, 60.0))
     direct = world_projection.project(empty_scene, 8)
     rendered = world_projection.project(empty_scene, 8, force_render=True)
-    assert direct.source.kind == "IMAGE" and rendered.source.kind == "RENDER"
+    assert direct.source.kind == "IMAGE"
+    assert rendered.source.kind == "RENDER"
     np.testing.assert_allclose(rendered.rotation, np.eye(3))  # the render already holds it
     zonal = analytic.clamped_cosine_zonal(8)[sh.band_of_index(8)][:, None]
     diffuse_error = np.linalg.norm((rendered.coeffs - direct.coeffs) * zonal)
@@ -248,5 +250,6 @@ def test_unrepresentable_mapping_is_reported_and_rendered(bpy_module, empty_scen
     empty_scene.world.node_tree.nodes["Mapping"].inputs["Location"].default_value = (0.0, 0.3, 0.0)
     assert bpy_module.ops.prt.project_world(order=4) == {"FINISHED"}
     settings = empty_scene.prt_world
-    assert settings.source_kind == "RENDER" and "location" in settings.message
+    assert settings.source_kind == "RENDER"
+    assert "location" in settings.message
     assert not settings.mapping_node  # the live display will not re-rotate a rendered world

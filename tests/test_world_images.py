@@ -5,9 +5,9 @@ import tracemalloc
 
 import numpy as np
 import pytest
-
-from prt_addon.core import projection, resample
 from test_world import SQRT_4PI, add_mapping, float_image, image_of, known_coeffs, new_world, use_image
+
+from prt_addon.core.sh import projection, resample
 
 pytestmark = pytest.mark.blender
 
@@ -24,7 +24,8 @@ def test_8bit_srgb_image_is_linearised(bpy_module, empty_scene):
 
     world = new_world(bpy_module, empty_scene)
     image = bpy_module.data.images.new("byte", 16, 8)  # 8-bit, colour space sRGB
-    assert not image.is_float and image.colorspace_settings.name == "sRGB"
+    assert not image.is_float
+    assert image.colorspace_settings.name == "sRGB"
     encoded = np.array([64, 128, 230]) / 255.0
     image.pixels.foreach_set(np.tile(np.append(encoded, 1.0), 16 * 8).astype(np.float32))
     use_image(world, image)
@@ -174,7 +175,8 @@ def test_failed_projection_leaves_stored_lighting_untouched(bpy_module, empty_sc
     with pytest.raises(ValueError, match="order"):
         api.project_world(empty_scene, 0)
     assert list(empty_scene["prt_world_sh"]) == stored
-    assert empty_scene.prt_world.token == token and empty_scene.prt_world.stored_order == 4
+    assert empty_scene.prt_world.token == token
+    assert empty_scene.prt_world.stored_order == 4
 
 
 def test_projection_is_saved_with_the_blend_file(bpy_module, empty_scene, tmp_path):
@@ -195,8 +197,12 @@ def test_projection_is_saved_with_the_blend_file(bpy_module, empty_scene, tmp_pa
     bpy_module.ops.wm.open_mainfile(filepath=path)
     scene = bpy_module.context.scene
     settings = scene.prt_world
-    assert settings.stored_order == 4 and settings.source_kind == "IMAGE"
-    assert settings.image_name == "img" and tuple(settings.image_size) == (64, 32)
-    assert settings.seconds > 0.0 and 0.0 <= settings.truncation < 1.0
-    assert len(scene[world_projection.SH_KEY]) == 16 * 3 and len(scene[world_projection.SH_WORLD_KEY]) == 16 * 3
+    assert settings.stored_order == 4
+    assert settings.source_kind == "IMAGE"
+    assert settings.image_name == "img"
+    assert tuple(settings.image_size) == (64, 32)
+    assert settings.seconds > 0.0
+    assert 0.0 <= settings.truncation < 1.0
+    assert len(scene[world_projection.SH_KEY]) == 16 * 3
+    assert len(scene[world_projection.SH_WORLD_KEY]) == 16 * 3
     np.testing.assert_allclose(world_projection.current_world_coeffs(scene), expected, atol=1e-12)

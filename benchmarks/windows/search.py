@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from prt_addon.core.sh import FOUR_PI, normalize_directions, order_of, sh_basis
+from prt_addon.core.sh.basis import FOUR_PI, normalize_directions, order_of, sh_basis
 
 from .weights import (
     AUTO_KINDS,

@@ -39,7 +39,7 @@ import math
 
 import numpy as np
 
-from prt_addon.core.sh import band_of_index, check_order, order_of
+from prt_addon.core.sh.basis import band_of_index, check_order, order_of
 
 KINDS = ("NONE", "HANNING", "LANCZOS", "LAPLACIAN")
 AUTO_KINDS = ("HANNING", "LANCZOS", "LAPLACIAN")

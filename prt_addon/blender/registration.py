@@ -10,10 +10,7 @@ import bpy
 
 from .bake import runner
 from .display import handlers
-from .ops import bake as bake_ops
-from .ops import display as display_ops
-from .ops import export as export_ops
-from .ops import world as world_ops
+from .ops import bake as bake_ops, display as display_ops, export as export_ops, world as world_ops
 from .ui import panels, properties
 
 # Order matters: property groups before the operators and panels that use them; the display's

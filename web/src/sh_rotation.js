@@ -1,4 +1,4 @@
-// SH rotation at any order (Ivanic-Ruedenberg), the port of prt_addon/core/rotation.py and frames.py.
+// SH rotation at any order (Ivanic-Ruedenberg), the port of prt_addon/core/sh/rotation.py and frames.py.
 //
 // Real orthonormal SH without the Condon-Shortley phase, index i = l(l+1) + m (docs/export.md).
 // bandMatrices(R, n) returns the blocks of M with M c = the coefficients of f(R^-1 w): band 1 is
@@ -138,7 +138,7 @@ function inverseTranspose3(a) {
 }
 
 /**
- * {rotation, mirrored}: the rotation part of a 3x3 matrix (row-major), as core/frames.py's
+ * {rotation, mirrored}: the rotation part of a 3x3 matrix (row-major), as core/sh/frames.py's
  * frame_rotation: the orthogonal polar factor Q of A = Q S (Newton's iteration Q <- (Q + Q^-T) / 2,
  * quadratic convergence), R = Q when det Q > 0, else R = -Q and mirrored.
  */

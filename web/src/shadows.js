@@ -1,6 +1,6 @@
 // The split lights' shadow views and their maps, as Blender's display draws them (display/shadows.py).
 //
-// A view (core.shadow_views, written by the export per light) is one orthographic R32F map of
+// A view (core.lights.shadow_views, written by the export per light) is one orthographic R32F map of
 // the depth from its near plane in world units over every mesh of the scene, fitted to the
 // bounding box of all vertices: a compact light has one view holding all its samples, a wide
 // light one per group of its samples. The compact views' maps are the layers of one 2048^2
@@ -10,7 +10,7 @@
 import * as THREE from 'three';
 
 export const MAX_SUNS = 8;
-export const MAX_WIDE_VIEWS = 32; // core.shadow_views: the wide lights' maps together
+export const MAX_WIDE_VIEWS = 32; // core.lights.shadow_views: the wide lights' maps together
 export const RESOLUTION = 2048; // the compact lights' maps
 export const WIDE_RESOLUTION = 1024; // a wide light's maps
 export const BLOCKER_TAPS = 12;

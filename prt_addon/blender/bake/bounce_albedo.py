@@ -1,6 +1,6 @@
 """The albedo light bounces off: each triangle's diffuse colour from its material (linear RGB).
 
-The rule is the display's Material albedo (display/albedo.py) for diffuse shaders: the
+The rule is the display's Material albedo (scene/materials.py) for diffuse shaders: the
 Principled BSDF's Base Color or the Diffuse BSDF's Color; no material: 0.8 grey (Blender's
 default surface); no node tree: the material's viewport colour. A colour that comes from an
 Image Texture node is the image's mean colour (linear); from any other node, the viewport colour.
@@ -12,8 +12,8 @@ warning.
 
 import numpy as np
 
-from .. import mesh_read
-from ..display.albedo import active_output
+from ..scene import mesh_read
+from ..scene.materials import active_output
 
 DEFAULT_GREY = 0.8
 DIFFUSE_SHADERS = {"ShaderNodeBsdfPrincipled": "Base Color", "ShaderNodeBsdfDiffuse": "Color"}

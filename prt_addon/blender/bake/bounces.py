@@ -2,18 +2,19 @@
 
 Every visible mesh instance is a part of the scene's occluder; its bake points (the same rule as
 a bake's points: vertices, or corners where normals split) are the nodes its triangles' hits are
-gathered at (core.bounce). A part that is baked reuses its plan's points and computation; any
+gathered at (core.transfer.bounce). A part that is baked reuses its plan's points and computation; any
 other part gets a computation of its own, traced once with the same directions, whose transfer
 only feeds the bounces. After the direct pass the bounce passes run on the whole node set.
 """
 
 import numpy as np
 
-from ...core import bounce, raytrace
-from ...core.mesh import concatenate_parts
-from .. import mesh_read
+from ...core.trace import raytrace
+from ...core.transfer import bounce, bounce_hits
+from ...core.transfer.mesh import concatenate_parts
+from ..scene import mesh_read
+from ..scene.parts import ray_setup
 from .bounce_albedo import triangle_albedo
-from .scene import ray_setup
 
 
 def _node_triangles(points, corners, corner_verts):
@@ -61,7 +62,7 @@ class BounceSystem:
         grey = bool(np.all(albedo == albedo[:, :1]))
         self.channels = 1 if grey else 3
         vertices, triangles = concatenate_parts(parts)
-        self.sink = bounce.HitTransport(
+        self.sink = bounce_hits.HitTransport(
             vertices,
             triangles,
             np.concatenate(node_triangles) if node_triangles else np.zeros((0, 3), np.int64),

@@ -3,7 +3,7 @@
 BakeJob reads everything it needs from the depsgraph when it is created, computes chunk by chunk
 (steps()) and writes all meshes at the end (finish()); nothing is written before that, so a
 cancelled or failed bake leaves the meshes as they were (storage.write_bakes also restores them
-if the write itself fails). The maths is in prt_addon.core.transfer; docs/bake.md explains it.
+if the write itself fails). The maths is in prt_addon.core.transfer.quadrature; docs/bake.md explains it.
 """
 
 import time
@@ -12,22 +12,21 @@ from concurrent.futures import ThreadPoolExecutor
 import bpy
 import numpy as np
 
-from ...core import bounce, raytrace, transfer
-from ...core.directions import make_directions
-from ...core.mesh import concatenate_parts
-from ...core.occluders import LazyOccluder
-from .. import mesh_read, storage
-from ..bvh_backend import BVHTreeOccluder
+from ...core.sh import frames
+from ...core.sh.directions import make_directions
+from ...core.trace import raytrace
+from ...core.trace.occluders import LazyOccluder
+from ...core.transfer import bounce_hits, quadrature as transfer
+from ...core.transfer.mesh import concatenate_parts
+from ..scene import mesh_read, storage
+from ..scene.occluders import BUILDERS
+from ..scene.parts import scene_parts
 from .bounces import BounceSystem
-from .scene import check_object, scene_parts
+from .plans import check_object
 from .settings import BakeError, BakeReport, BakeSettings, blender_threads, fallback_note, resolve_backend
 
 # Progress weight of one bounce pass per node, against one traced point (measured ~0.1 to 0.3).
 PASS_WORK = 0.2
-
-
-# The ray-tracing backends, injected into the core's lazily built occluder.
-BUILDERS = {"EMBREE": raytrace.EmbreeOccluder, "BVHTREE": BVHTreeOccluder}
 
 
 class BakeJob:
@@ -52,7 +51,7 @@ class BakeJob:
             self.settings.threads = blender_threads(depsgraph.scene)
         self.plans = []
         self.bounce = None  # BounceSystem of an interreflected bake
-        self._sink = bounce.LateSink() if self.settings.bounces else None  # its computations' hit sink
+        self._sink = bounce_hits.LateSink() if self.settings.bounces else None  # its computations' hit sink
         self._sources = [] if self.settings.bounces else None
         self._reads = {}  # evaluated mesh pointer -> (positions, triangles), read once
         self._pool = ThreadPoolExecutor(max(1, self.settings.threads), thread_name_prefix="prt-bake")
@@ -78,7 +77,7 @@ class BakeJob:
             # The first object's slices start as soon as its points are ready: they trace while
             # the other objects' points are read and, in an interreflected bake, while the bounce
             # system reads its tables (which need every part's nodes): hits that come before
-            # those are kept as they came until the slice is collected (core.bounce.LateSink).
+            # those are kept as they came until the slice is collected (core.transfer.bounce_hits.LateSink).
             for index, plan in enumerate(self.plans):
                 mesh_eval, positions = plan.source
                 plan.points = mesh_read.bake_points(mesh_eval, plan.matrix, positions)
@@ -242,13 +241,13 @@ class BakeJob:
             backend = self.backend if traced and stats.rays_traced else "NONE"
             if backend != "NONE":
                 backends.add(backend)
-            local = transfer.to_local_frame(comp.coeffs, plan.matrix[:3, :3])
+            local = frames.to_local_frame(comp.coeffs, plan.matrix[:3, :3])
             values = local if plan.points.scatter is None else local[plan.points.scatter]
             bounced = None
             if self.bounce is not None:
                 world = self.bounce.bounced[id(plan)]
                 bounced = np.stack(
-                    [transfer.to_local_frame(world[:, c], plan.matrix[:3, :3]) for c in range(world.shape[1])], axis=1
+                    [frames.to_local_frame(world[:, c], plan.matrix[:3, :3]) for c in range(world.shape[1])], axis=1
                 )
                 if plan.points.scatter is not None:
                     bounced = bounced[plan.points.scatter]

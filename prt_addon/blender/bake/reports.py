@@ -3,7 +3,6 @@ and how it is told to the operator's caller."""
 
 import json
 
-
 # Reports of bakes that changed nothing (refused, failed, cancelled) are kept in memory only, so
 # that a refused bake leaves the .blend exactly as it was; a finished bake saves its report in
 # scene.prt_bake.last_report (it changed the file anyway).

@@ -12,7 +12,6 @@ import bpy
 from .reports import _report_to_operator, _store_report
 from .settings import BakeReport
 
-
 TIME_SLICE = 0.1  # seconds of work per timer event of the modal bake
 
 
@@ -104,13 +103,13 @@ class TimeSlicedRunner:
         except StopIteration:
             try:
                 report = self._bake.finish()
-            except Exception as exc:  # noqa: BLE001
+            except Exception as exc:
                 return self._fail(context, exc)
             self._cleanup(context)
             _store_report(context.scene, report)
             _report_to_operator(self, report)
             return {"FINISHED"}
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             return self._fail(context, exc)
         context.window_manager.progress_update(100.0 * fraction)
         if context.workspace is not None:

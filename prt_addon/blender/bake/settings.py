@@ -4,9 +4,10 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from ...core import raytrace, transfer
-from ...core.directions import KINDS
-
+from ...core.sh.directions import KINDS
+from ...core.trace import raytrace
+from ...core.transfer import quadrature as transfer
+from ..scene.occluders import auto_backend
 
 BACKENDS = ("AUTO", "EMBREE", "BVHTREE")
 
@@ -14,14 +15,6 @@ BACKENDS = ("AUTO", "EMBREE", "BVHTREE")
 MAX_ORDER = 16
 MIN_SAMPLES = 2  # the API's and the Samples property's minimum
 MAX_BOUNCES = 8
-
-
-# Ray origin offset along the normal: OFFSET_REL times the world bounding-box diagonal of the
-# object being baked, and at least OFFSET_ULP times its largest coordinate (float32 rounding).
-OFFSET_REL = 1e-4
-
-
-OFFSET_ULP = 1e-5
 
 
 class BakeError(ValueError):
@@ -40,7 +33,7 @@ class BakeSettings:
     cull: bool = True  # skip rays where nothing can occlude (False: trace them all, for tests)
     chunk_rays: int = transfer.CHUNK_RAYS
     threads: int = None  # None: Blender's own setting (Render > Performance > Threads)
-    bounces: int = 0  # diffuse reflections between the world and the receiver (core.bounce)
+    bounces: int = 0  # diffuse reflections between the world and the receiver (core.transfer.bounce)
 
     def validate(self):
         if (
@@ -193,7 +186,7 @@ def fallback_note():
 def resolve_backend(requested):
     requested = str(requested).upper()
     if requested == "AUTO":
-        return "EMBREE" if raytrace.EMBREE_AVAILABLE else "BVHTREE"
+        return auto_backend()
     if requested == "EMBREE" and not raytrace.EMBREE_AVAILABLE:
         raise BakeError(
             f"the Embree backend is not available on this system ({raytrace.EMBREE_IMPORT_ERROR}): "

@@ -23,6 +23,9 @@ import bpy
 import gpu
 import numpy as np
 
+from .. import caches
+from .redraw import tag_redraw
+
 LUT_SIZE = 66  # nodes per axis, 0.385 stop apart; node 39 is exactly 1.0, where Standard and Raw clip
 LOG2_MIN = -15.0  # log2 of the scene-linear range covered (about the range of AgX's own shaper)
 LOG2_MAX = 10.0
@@ -210,8 +213,6 @@ def _check():
                 continue
             changed = True
     if changed:
-        from .draw import tag_redraw  # (draw imports this module)
-
         tag_redraw()
     return CHECK_INTERVAL
 
@@ -227,6 +228,7 @@ def unregister_timer():
     clear()
 
 
+@caches.on_clear
 def clear():
     """Drop every table and texture (file load, unregister)."""
     _tables.clear()

@@ -3,7 +3,7 @@
 Per redraw (docs/display.md): the world light comes from lighting.world_light; per object it is
 rotated into the object's local frame and written into its uniform buffer only when it changed;
 the transfer batches come from gpu_cache. With split sun lights (lighting.world_lights) their
-shadow views (core.shadow_views) get their maps from shadows.py and the sun variant of the shader
+shadow views (core.lights.shadow_views) get their maps from shadows.py and the sun variant of the shader
 is used. The viewport draws through the scene's display transform (colour.py), whose table the
 draw only uploads. Nothing here changes Blender data.
 """
@@ -12,16 +12,14 @@ import bpy
 import gpu
 import numpy as np
 
-from .. import storage
-from . import colour
-from . import light_markers
-from .albedo import _slot_tints, display_settings, material_colour
+from ..scene import storage
+from ..scene.lighting import bounce_light_extra, exposure_scale, light_in_local_frame, world_light, world_lights
+from ..scene.materials import _slot_tints, display_settings, material_colour
+from . import colour, light_markers
 from .gpu_cache import ObjectState, _object_cache, _prune, clear_caches, get_mesh_entry
-from .lighting import bounce_light_extra, exposure_scale, light_in_local_frame, world_light, world_lights
 from .shader import get_shader, light_ubo_bytes
 from .shader_suns import MAX_SUNS, suns_ubo_bytes, view_layout
 from .shadows import update_shadow_maps
-
 
 VIEWPORT_DEPTH_BIAS = 2e-5  # clip-space z bias so the overlay wins against the engine's own depth
 
@@ -125,7 +123,12 @@ def _bind_suns(shader, state, suns, maps, matrix_world):
 
 
 def _draw_callback():
-    context = bpy.context
+    draw_viewport(bpy.context)
+
+
+def draw_viewport(context):
+    """What the viewport's draw handler draws, for the 3D View of `context` (its scene, view layer,
+    space and region data): the baked objects over the engine's image."""
     scene = context.scene
     settings = getattr(scene, "prt", None)
     if settings is None or not settings.show_display:
@@ -181,13 +184,3 @@ def remove_draw_handler():
         _draw_handle = None
     light_markers.remove_handler()
     clear_caches()
-
-
-def tag_redraw():
-    wm = getattr(bpy.context, "window_manager", None)
-    if wm is None:
-        return
-    for window in wm.windows:
-        for area in window.screen.areas:
-            if area.type == "VIEW_3D":
-                area.tag_redraw()

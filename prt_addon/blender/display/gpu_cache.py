@@ -7,8 +7,9 @@ by modifiers or shape keys move (their batches are cached per object).
 import gpu
 import numpy as np
 
-from .. import mesh_read, storage
-from .albedo import element_albedo, element_count
+from .. import caches
+from ..scene import mesh_read, storage
+from ..scene.materials import element_albedo, element_count
 from .shader import shader_mode, transfer_vec4s
 
 
@@ -39,12 +40,18 @@ _mesh_cache = {}  # (mesh pointer, object pointer or 0 when undeformed) -> MeshE
 _object_cache = {}  # object pointer -> ObjectState
 
 
+@caches.on_clear
 def clear_caches():
-    from .shadows import clear_shadows
-
     _mesh_cache.clear()
     _object_cache.clear()
-    clear_shadows()
+
+
+@caches.on_geometry
+def forget_mesh(mesh):
+    """Drop the batches of `mesh` (its geometry changed)."""
+    ptr = mesh.as_pointer()
+    for key in [k for k in _mesh_cache if k[0] == ptr]:
+        del _mesh_cache[key]
 
 
 def _cache_key(mesh, info, albedo_mode, albedo_attr):

@@ -3,16 +3,14 @@
 import bpy
 from bpy.app.handlers import persistent
 
-from .. import storage
-from . import colour, draw, gpu_cache, shader, shadows
-from .lighting import clear_light_overrides
+from .. import caches
+from . import colour, draw
 
 
 @persistent
 def _on_load_pre(*_args):
     draw.remove_draw_handler()
-    clear_light_overrides()
-    storage.forget_all_cached_fingerprints()  # (keyed by pointers, which a new file reuses)
+    caches.clear_all()  # (caches are keyed by pointers, which a new file reuses)
 
 
 @persistent
@@ -32,11 +30,7 @@ def _on_depsgraph_update(_scene, depsgraph):
         elif isinstance(ident, bpy.types.Object) and ident.type == "MESH":
             mesh = ident.original.data
         if mesh is not None:
-            shadows.geometry_changed()
-            ptr = mesh.as_pointer()
-            for key in [k for k in gpu_cache._mesh_cache if k[0] == ptr]:
-                del gpu_cache._mesh_cache[key]
-            storage.forget_cached_fingerprints(mesh)
+            caches.geometry_changed(mesh)
 
 
 _APP_HANDLERS = (
@@ -62,9 +56,7 @@ def unregister_handlers():
         handlers = getattr(bpy.app.handlers, name)
         while func in handlers:
             handlers.remove(func)
-    clear_light_overrides()
-    storage.forget_all_cached_fingerprints()  # (keyed by pointers, which a new file reuses)
-    shader._shaders.clear()
+    caches.clear_all()
 
 
 register_extra = register_handlers

@@ -13,7 +13,7 @@ import bpy
 import gpu
 import numpy as np
 
-from .lighting import world_lights
+from ..scene.lighting import world_lights
 
 LENGTH_SCALE = 0.35  # line length / distance from the eye to the cursor
 LINE_WIDTH = (1.5, 4.0)  # pixels: weakest and strongest light

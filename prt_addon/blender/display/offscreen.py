@@ -13,11 +13,10 @@ import bpy
 import gpu
 import numpy as np
 
+from ..scene.lighting import exposure_scale
 from ..world import nodes
-from . import colour
-from . import light_markers
+from . import colour, light_markers
 from .draw import baked_objects, draw_objects
-from .lighting import exposure_scale
 
 
 def gpu_ready():

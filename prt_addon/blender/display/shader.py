@@ -12,8 +12,9 @@ With sun lights (shadows.py) a variant adds per pixel albedo * sum_l P_l/pi * ma
 import gpu
 import numpy as np
 
+from .. import caches
 from . import colour
-
+from .shader_suns import UBO_SOURCE, add_suns
 
 # GL guarantees (and llvmpipe offers) 16 vertex attributes; position and albedo use two.
 MAX_VERTEX_ATTRIBUTES = 16
@@ -23,6 +24,11 @@ MAX_ATTRIBUTE_TRANSFER = MAX_VERTEX_ATTRIBUTES - 2  # 14 vec4 = 56 coefficients:
 
 
 _shaders = {}
+
+
+@caches.on_clear
+def clear_shaders():
+    _shaders.clear()
 
 
 _VERTEX_COMMON = """
@@ -58,7 +64,7 @@ def shader_mode(count):
 
 def _bounce_lines(fetch, k, count, channels):
     """Lines adding the bounced transfer's k-th vec4s (one per channel, or one for all when
-    channels == 1) against light.b, the sky plus the split lights' SH (core.light_sh)."""
+    channels == 1) against light.b, the sky plus the split lights' SH (core.lights.light_sh)."""
     t = [fetch(count * (1 + (c if channels == 3 else 0)) + k) for c in range(3)]
     return (
         f"  r += vec3(dot({t[0]}, light.b[{k}]), dot({t[1]}, light.b[{count + k}]), "
@@ -86,8 +92,6 @@ def get_shader(count, lights=None, bounce_channels=0):
     bounce_block = f" vec4 b[{3 * count}];" if bounce_channels else ""
     typedefs = f"struct PRTLight {{ vec4 c[{3 * count}];{bounce_block} }};\n"
     if lights:
-        from .shader_suns import UBO_SOURCE
-
         typedefs += UBO_SOURCE  # (typedef_source keeps only its last call)
     info.typedef_source(typedefs)
     info.uniform_buf(0, "PRTLight", "light")
@@ -126,8 +130,6 @@ def get_shader(count, lights=None, bounce_channels=0):
             "  }"
         )
     if lights:
-        from .shader_suns import add_suns
-
         vertex, fragment = add_suns(info, lights, _VERTEX_COMMON % body, 2 + total if mode == "ATTR" else 2)
     else:
         iface = gpu.types.GPUStageInterfaceInfo("prt_iface")

@@ -2,8 +2,8 @@
 
 Added to the PRT shader when the scene has split lights. The SH part (per vertex, clamped) is left
 as it is; the fragment shader adds albedo * sum_v P_v/pi * C_v * V_v over the shadow views
-(core.shadow_views): a compact light is one view holding all its samples, a wide light one view
-per group of its samples. C_v is the view's cosine term as core.light_visibility.light_cosines
+(core.lights.shadow_views): a compact light is one view holding all its samples, a wide light one view
+per group of its samples. C_v is the view's cosine term as core.lights.visibility.light_cosines
 defines it, over its own samples: sum_j w_j max(0, n.s_j). V_v is PCSS on the view's orthographic
 depth map (shadows.py; a tile of the compact or of the wide maps' atlas): a blocker search over
 the widest penumbra the view's disc can throw, then percentage-closer filtering with the penumbra
@@ -16,7 +16,7 @@ does not grow with the filter's radius.
 import gpu
 import numpy as np
 
-from ...core.shadow_views import MAX_SAMPLES, MAX_WIDE_VIEWS
+from ...core.lights.shadow_views import MAX_SAMPLES, MAX_WIDE_VIEWS
 
 MAX_SUNS = 8
 MAX_VIEWS = MAX_SUNS + MAX_WIDE_VIEWS
@@ -181,7 +181,7 @@ def add_suns(info, layout, vertex_source, attr_index):
 
 def suns_ubo_bytes(lights, shadow_set, matrix_world):
     """std140 bytes of PRTSuns for one object: its normal matrix, and per view
-    (core.shadow_views; the compact lights' views first, as view_layout counts them) the local ->
+    (core.lights.shadow_views; the compact lights' views first, as view_layout counts them) the local ->
     (texel x, texel y, depth) rows of its map, its direction, the map's world axes t and b, P / pi
     of its light, (texel size, tan filter angle, resolution), (first sample, sample count,
     the first texel of its tile in the atlas) and the samples (direction, weight)."""

@@ -10,6 +10,8 @@ wide: ATLAS_WIDTH // resolution tiles to a row.
 
 import gpu
 
+from .. import caches
+
 ATLAS_WIDTH = 8192
 
 _COPY_VERTEX = """
@@ -114,6 +116,7 @@ def copy_into(atlas, tile, source):
         gpu.state.viewport_set(*viewport)
 
 
+@caches.on_clear
 def clear():
     _copy.clear()
     _empty.clear()

@@ -1,6 +1,6 @@
 """Shadow maps of the split lights: one orthographic depth map per shadow view over all visible meshes.
 
-The views come from core.shadow_views (one per compact light, one per sample group of a wide
+The views come from core.lights.shadow_views (one per compact light, one per sample group of a wide
 light). Every visible mesh casts (baked or not), from its evaluated world-space triangles. Each
 map is a tile of an R32F atlas (shadow_atlas.py) holding the depth from the view's near plane in
 world units (cleared to FAR), drawn with a depth buffer from the view's direction and fitted to the
@@ -14,12 +14,13 @@ import bpy
 import gpu
 import numpy as np
 
-from ...core.shadow_views import shadow_views, wide_view_budget
-from .. import mesh_read
+from ...core.lights.shadow_views import shadow_views, wide_view_budget
+from .. import caches
+from ..scene import mesh_read
 from . import shadow_atlas
 
 RESOLUTION = 2048  # the compact lights' maps
-WIDE_RESOLUTION = 1024  # a wide light's maps (core.shadow_views): softer, and many of them
+WIDE_RESOLUTION = 1024  # a wide light's maps (core.lights.shadow_views): softer, and many of them
 FAR = 1.0e30
 PAD = 0.01  # fraction of the box diagonal added around the casters
 
@@ -55,7 +56,7 @@ class ViewMap:
 
 
 class ShadowSet:
-    """The maps of a frame: the lights' views (core.shadow_views.ShadowView), one ViewMap per view
+    """The maps of a frame: the lights' views (core.lights.shadow_views.ShadowView), one ViewMap per view
     (same order) and the two atlas textures (the compact lights' tiles at RESOLUTION, the wide
     lights' views' at WIDE_RESOLUTION; a 1-texel texture stands in for an empty one, as a sampler
     is bound even when it is not read)."""
@@ -77,15 +78,16 @@ class ShadowState:
         self.atlases = {}  # wide flag -> shadow_atlas.Atlas
 
 
-def geometry_changed():
-    """Called by the depsgraph handler when any mesh geometry changed: casters are read again."""
+@caches.on_geometry
+def geometry_changed(_mesh=None):
+    """Any mesh's geometry changed: the casters are read again."""
     _generation[0] += 1
 
 
+@caches.on_clear
 def clear_shadows():
     _states.clear()
     _depth_shader.clear()
-    shadow_atlas.clear()
 
 
 def _shader():
@@ -243,8 +245,8 @@ def _atlas(state, wide, tiles, resolution):
 
 
 def update_shadow_maps(scene, lights, depsgraph=None, view_layer=None, resolution=None, wide_resolution=None):
-    """The scene's ShadowSet for `lights` (core.lights.Light list): their views
-    (core.shadow_views, as many wide maps as the casters' triangles allow), each map drawn again
+    """The scene's ShadowSet for `lights` (core.lights.extraction.Light list): their views
+    (core.lights.shadow_views, as many wide maps as the casters' triangles allow), each map drawn again
     only when its direction or the geometry changed."""
     sizes = {False: resolution or RESOLUTION, True: wide_resolution or WIDE_RESOLUTION}
     state = _states.setdefault(scene.as_pointer(), ShadowState())

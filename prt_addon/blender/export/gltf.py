@@ -14,15 +14,13 @@ import uuid
 import bpy
 import numpy as np
 
-from ...core.light_samples import shadow_angle
-from ...core.light_sh import lights_sh
-from ...core.lights import MAX_LIGHTS
-from ...core.shadow_views import light_samples, shadow_views
-
-from ...core import rotation as _rotation
-from .. import storage
-from ..world import nodes as _nodes
-from ..world import projection as _world
+from ...core.lights.extraction import MAX_LIGHTS
+from ...core.lights.light_sh import lights_sh
+from ...core.lights.samples import shadow_angle
+from ...core.lights.shadow_views import light_samples, shadow_views
+from ...core.sh import rotation as _rotation
+from ..scene import lighting as _lighting, storage
+from ..world import nodes as _nodes, projection as _world
 from ..world.nodes import WorldError
 from . import glb, ibl
 
@@ -106,7 +104,7 @@ def _plan(objects, scene):
 
 
 def _sample_indices(light, views):
-    """Per view of `light` (core.shadow_views.ShadowView, in order) the indices of its samples in
+    """Per view of `light` (core.lights.shadow_views.ShadowView, in order) the indices of its samples in
     light.samples, or None for a light without samples (its one view is its direction). The views
     hold copies of the light's first samples (normalised) and weights (renormalised): each one is
     found by sorting both sets of (direction, weight) rows, which pairs them one to one."""
@@ -126,7 +124,7 @@ def _sample_indices(light, views):
 
 
 def _views_extras(lights):
-    """Per light the JSON of its shadow views (core.shadow_views at the full budget of wide maps,
+    """Per light the JSON of its shadow views (core.lights.shadow_views at the full budget of wide maps,
     MAX_WIDE_VIEWS: the viewer runs on a GPU, the viewport may draw fewer on a heavy scene), glTF
     frame. Only the first MAX_LIGHTS lights are drawn (the viewport's MAX_SUNS): later ones get []."""
     views = shadow_views(lights[:MAX_LIGHTS])
@@ -150,8 +148,6 @@ def world_extras(scene):
     coeffs = _world.current_world_coeffs(scene)
     if coeffs is None:
         raise ExportError("the scene has no PRT lighting: project the world first (PRT tab > Project World)")
-    from ..display import lighting as _lighting
-
     world_lights = list(_lighting.world_lights(scene))
     lights = []
     for light, views in zip(world_lights, _views_extras(world_lights)):

@@ -4,7 +4,7 @@ Babylon.js's loader is the extension's reference, and these are its conventions 
 source, checked in tests/test_babylon_ibl.py); docs/export.md is the contract:
 
 * Babylon's glTF root node turns glTF's right-handed frame into its left-handed world by
-  (x, y, z) -> (-x, y, z), and samples the cube map (WebGL's convention, core.prefilter) with
+  (x, y, z) -> (-x, y, z), and samples the cube map (WebGL's convention, core.ibl.prefilter) with
   world directions: so the cube frame is glTF's with x negated (BABYLON_FROM_GLTF).
 * Each face image is uploaded flipped (texture row 0 = the image's bottom row): a PNG's top row
   is the face's t = +1 row.
@@ -16,7 +16,8 @@ import time
 
 import numpy as np
 
-from ...core import prefilter, rgbd_png, sh
+from ...core.ibl import prefilter, rgbd_png
+from ...core.sh import basis as sh
 from ..world import nodes as _nodes
 from ..world.pixels import NeedsRender, read_image_pixels, render_world
 

@@ -59,7 +59,7 @@ class PRT_OT_bake_transfer(TimeSlicedRunner, bpy.types.Operator):
             return {"CANCELLED"}
         try:
             report = job.run()
-        except Exception as exc:  # noqa: BLE001 - any failure must leave the meshes untouched
+        except Exception as exc:
             _store_report(context.scene, BakeReport(message=f"Bake failed: {exc}"))
             self.report({"ERROR"}, f"PRT: bake failed, nothing was changed: {exc}")
             return {"CANCELLED"}

@@ -7,7 +7,7 @@ the PRT display always agree. prt.set_light_rotation creates the node when there
 
 import bpy
 
-from ..display.draw import tag_redraw
+from ..display.redraw import tag_redraw
 from ..world import nodes
 
 

@@ -2,7 +2,7 @@
 
 import bpy
 
-from ...core import raytrace
+from ...core.trace import raytrace
 from ..bake.job import status
 from ..bake.presets import PRESETS, preset_of
 from ..bake.reports import last_report

@@ -2,8 +2,7 @@
 
 import bpy
 
-from .. import storage
-from ..display import lighting
+from ..scene import lighting, storage
 from ..world import light_split, nodes
 from .bake_panel import VIEW3D_PT_prt_bake, VIEW3D_PT_prt_bake_options, VIEW3D_PT_prt_bake_report
 from .sidebar import PRTSubPanel, wrapped_label

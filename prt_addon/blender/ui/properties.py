@@ -7,7 +7,7 @@ scene.prt_display.
 
 import bpy
 
-from ...core.lights import MAX_LIGHTS
+from ...core.lights.extraction import MAX_LIGHTS
 from ..bake.settings import MAX_BOUNCES, MAX_ORDER, MIN_SAMPLES
 from ..world.projection import MAX_ORDER as MAX_WORLD_ORDER
 

@@ -1,19 +1,18 @@
 """The light split of a world image: its checks, the extraction, the figures shown, the storage.
 
-The maths is prt_addon.core.lights; docs/world.md ("Light split") explains what is stored.
+The maths is prt_addon.core.lights.extraction; docs/world.md ("Light split") explains what is stored.
 """
 
 import dataclasses
 
 import numpy as np
 
-from ...core import light_samples as core_samples
-from ...core import lights as core_lights
-from ...core.projection import ROW_BLOCK, as_rgb_image, pixel_solid_angles
+from ...core.lights import extraction as core_lights, samples as core_samples
+from ...core.sh.projection import ROW_BLOCK, as_rgb_image, pixel_solid_angles
 from .nodes import WorldError
 
-LIGHTS_KEY = "prt_world_lights"  # image-frame lights, flat (core.lights.lights_to_array)
-SAMPLES_KEY = "prt_world_light_samples"  # their samples (core.light_samples.samples_to_array)
+LIGHTS_KEY = "prt_world_lights"  # image-frame lights, flat (core.lights.extraction.lights_to_array)
+SAMPLES_KEY = "prt_world_light_samples"  # their samples (core.lights.samples.samples_to_array)
 
 
 def check_split_settings(threshold, max_lights):

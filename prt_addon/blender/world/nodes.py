@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...core import rotation
+from ...core.sh import rotation
 
 
 class WorldError(ValueError):

@@ -9,9 +9,8 @@ import bpy
 import mathutils
 import numpy as np
 
-from ...core import resample
+from ...core.sh import resample
 from .nodes import WorldError
-
 
 # Camera rotation that makes a Cycles equirectangular panorama equal Blender's equirect convention
 # (measured: rendering an Environment Texture with this camera reproduces the image to 2e-7).

@@ -18,12 +18,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...core import lights as core_lights
-from ...core import projection, resample, rotation, sh
+from ...core.lights import extraction as core_lights
+from ...core.sh import basis as sh, projection, resample, rotation
+from .. import caches
 from . import light_split
 from .nodes import WorldError, WorldSource, _render_source, analyse_world, live_sh_rotation
 from .pixels import NeedsRender, read_image_pixels, render_world
-
 
 SH_KEY = "prt_world_sh"  # unrotated (image-frame) coefficients, flat, index 3 * i + channel
 
@@ -48,7 +48,7 @@ class WorldProjection:
     projected_size: tuple = (0, 0)  # after reduction
     warnings: list = field(default_factory=list)
     split: bool = False  # whether the light split ran (an IMAGE or RENDER source with it on)
-    lights: list = field(default_factory=list)  # core.lights.Light, image frame, strength applied
+    lights: list = field(default_factory=list)  # core.lights.extraction.Light, image frame, strength applied
     light_share: float = 0.0  # fraction of the world's luminance power in the lights
 
 
@@ -182,7 +182,12 @@ def project_and_store(scene, order=None, split_lights=None, threshold=None, max_
     return result
 
 
-_cache = {}
+_cache = {}  # scene pointer -> (key, the lights in world space)
+
+
+@caches.on_clear
+def clear_cache():
+    _cache.clear()
 
 
 def stored_image_coeffs(scene):
@@ -230,7 +235,7 @@ def current_world_coeffs(scene):
 
 
 def current_world_lights(scene):
-    """The stored split lights in world space for the Mapping rotation now (core.lights.Light
+    """The stored split lights in world space for the Mapping rotation now (core.lights.extraction.Light
     list: a light at image direction s is at Q s, the Q of the SH), [] when there are none."""
     settings = getattr(scene, "prt_world", None)
     if settings is None or settings.stored_order < 1:

@@ -1,0 +1,94 @@
+"""The split lights' part of `lighting.shade`: power / pi * max(0, n . s) * V per element, with V
+traced against the scene's occluders as the bake builds them."""
+
+import hashlib
+
+import numpy as np
+
+from ...core.lights import visibility as light_visibility
+from ...core.transfer.mesh import concatenate_parts, matrix_to_numpy, transform_points, vertex_points
+from .. import caches
+from . import mesh_read
+from .occluders import BUILDERS, auto_backend
+from .parts import OFFSET_REL, OFFSET_ULP, scene_parts
+
+RAYS_PER_LIGHT = 16  # rays over each light's disc per element (core.lights.visibility.disc_directions)
+
+_occluders = {}  # "scene" or "self" -> (key of the triangles, occluder); one of each is kept
+
+
+def _occluder(kind, vertices, triangles):
+    """The occluder of these world-space triangles, built once per distinct geometry."""
+    digest = hashlib.blake2b(digest_size=16)
+    digest.update(np.ascontiguousarray(vertices, dtype=np.float32).tobytes())
+    digest.update(np.ascontiguousarray(triangles, dtype=np.int32).tobytes())
+    backend = auto_backend()
+    key = (backend, digest.hexdigest())
+    cached = _occluders.get(kind)
+    if cached is not None and cached[0] == key:
+        return cached[1]
+    occluder = BUILDERS[backend](
+        np.ascontiguousarray(vertices, dtype=np.float32), np.ascontiguousarray(triangles, dtype=np.int32)
+    )
+    _occluders[kind] = (key, occluder)
+    return occluder
+
+
+@caches.on_clear
+def clear_cache():
+    _occluders.clear()
+
+
+def element_points(obj_eval, domain):
+    """(world points, world unit normals, offset) per element of the stored bake's domain: one
+    row per vertex (POINT) or per face corner (CORNER), read as the bake reads them."""
+    mesh = obj_eval.data
+    matrix = matrix_to_numpy(obj_eval.matrix_world)
+    positions = mesh_read.read_positions(mesh)
+    points = mesh_read.bake_points(mesh, matrix, positions)
+    if domain == "CORNER":
+        rows = mesh_read.read_corner_verts(mesh) if points.scatter is None else points.scatter
+        world_points, normals = points.positions[rows], points.normals[rows]
+    else:
+        if points.scatter is not None:  # the normals split since the bake: one per vertex again
+            points = vertex_points(matrix, positions, mesh_read.read_vertex_normals(mesh))
+        world_points, normals = points.positions, points.normals
+    world = transform_points(matrix, positions)
+    diagonal = float(np.linalg.norm(world.max(axis=0) - world.min(axis=0))) if len(world) else 0.0
+    biggest = float(np.abs(world).max()) if len(world) else 0.0
+    offset = max(OFFSET_REL * diagonal, OFFSET_ULP * biggest, 1e-30)
+    return np.asarray(world_points, np.float64), np.asarray(normals, np.float64), offset
+
+
+def scene_occluder(depsgraph, obj_eval=None):
+    """The occluder of every visible mesh (parts.scene_parts), or of obj_eval alone."""
+    if obj_eval is None:
+        vertices, triangles = concatenate_parts(scene_parts(depsgraph))
+        kind = "scene"
+    else:
+        mesh = obj_eval.data
+        positions = mesh_read.read_positions(mesh)
+        triangles = mesh_read.read_triangles(mesh, positions)
+        vertices = transform_points(matrix_to_numpy(obj_eval.matrix_world), positions).astype(np.float32)
+        kind = "self"
+    return None if len(triangles) == 0 else _occluder(kind, vertices, triangles)
+
+
+def light_radiance(obj, depsgraph, lights, info, rays_per_light=RAYS_PER_LIGHT):
+    """(elements, 3) radiance of the lights on obj, white albedo, shadowed as its bake was:
+    by every visible mesh, by the object alone (self-shadow only), or not at all (shadows off)."""
+    obj_eval = obj.evaluated_get(depsgraph)
+    points, normals, offset = element_points(obj_eval, info.domain)
+    if not lights:
+        return np.zeros((len(points), 3))
+    record = getattr(info, "record", None)
+    shadows = bool(record.get("shadows", True)) if record is not None else True
+    self_only = bool(record.get("self_shadow_only", False)) if record is not None else False
+    visibility = None
+    if shadows:
+        occluder = scene_occluder(depsgraph, obj_eval if self_only else None)
+        if occluder is not None:
+            visibility = light_visibility.light_visibility(
+                points, normals, lights, occluder, rays_per_light=rays_per_light, offset=offset
+            )
+    return light_visibility.light_irradiance(normals, lights, visibility)

@@ -1,0 +1,81 @@
+"""The albedo the display multiplies by: material base colours, a colour attribute, or white."""
+
+import numpy as np
+
+from . import mesh_read, storage
+
+
+def display_settings(scene):
+    settings = getattr(scene, "prt_display", None)
+    if settings is None:
+        return "MATERIAL", ""
+    return settings.albedo_source, settings.albedo_attribute
+
+
+def _albedo_attribute(mesh, name):
+    if name:
+        attr = mesh.color_attributes.get(name)
+        return attr
+    active = mesh.color_attributes.active_color
+    if active is not None and not active.name.startswith(storage.PREFIX):
+        return active
+    for attr in mesh.color_attributes:
+        if not attr.name.startswith(storage.PREFIX):
+            return attr
+    return None
+
+
+def element_count(mesh, domain):
+    return len(mesh.vertices) if domain == "POINT" else len(mesh.loops)
+
+
+def element_albedo(mesh, domain, mode, attr_name):
+    """(elements, 4) float32 per-element albedo factor: ones unless mode == 'ATTRIBUTE'."""
+    n = element_count(mesh, domain)
+    ones = np.ones((n, 4), dtype=np.float32)
+    if mode != "ATTRIBUTE":
+        return ones
+    attr = _albedo_attribute(mesh, attr_name)
+    if attr is None:
+        return ones
+    values = np.empty(element_count(mesh, attr.domain) * 4, dtype=np.float32)
+    attr.data.foreach_get("color", values)
+    values = values.reshape(-1, 4)
+    if attr.domain == domain:
+        return values
+    corner_verts = mesh_read.read_corner_verts(mesh)
+    if domain == "CORNER":  # POINT colours onto corners
+        return np.ascontiguousarray(values[corner_verts])
+    # CORNER colours onto vertices: the mean of each vertex's corners.
+    sums = np.zeros((n, 4))
+    np.add.at(sums, corner_verts, values)
+    counts = np.bincount(corner_verts, minlength=n)[:, None]
+    return np.where(counts > 0, sums / np.maximum(counts, 1), 1.0).astype(np.float32)
+
+
+def active_output(material):
+    """The material's active Material Output node, or None (no node tree, or none active)."""
+    tree = getattr(material, "node_tree", None)
+    for node in tree.nodes if tree is not None else []:
+        if node.bl_idname == "ShaderNodeOutputMaterial" and node.is_active_output:
+            return node
+    return None
+
+
+def material_colour(material):
+    """Linear RGBA base colour of a material: Principled/Diffuse BSDF input, else diffuse_color."""
+    if material is None:
+        return (0.8, 0.8, 0.8, 1.0)
+    output = active_output(material)
+    if output is not None and output.inputs["Surface"].is_linked:
+        bsdf = output.inputs["Surface"].links[0].from_node
+        sock = bsdf.inputs.get("Base Color") or bsdf.inputs.get("Color")
+        if sock is not None and not sock.is_linked and hasattr(sock, "default_value"):
+            return tuple(sock.default_value)
+    return tuple(material.diffuse_color)
+
+
+def _slot_tints(obj, albedo_mode):
+    if albedo_mode != "MATERIAL":
+        return None
+    return [material_colour(slot.material) for slot in obj.material_slots]

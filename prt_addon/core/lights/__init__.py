@@ -1,0 +1,1 @@
+"""Split lights: extraction from an HDRI, their samples, visibility, SH and shadow views."""

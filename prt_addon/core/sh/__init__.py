@@ -1,0 +1,1 @@
+"""Spherical harmonics: the basis, rotation, projection of images, closed forms, direction sets, frames."""

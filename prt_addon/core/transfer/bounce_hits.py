@@ -1,0 +1,207 @@
+"""The shadow pass's hits as transport entries: the hit sink, its barycentrics and node choice.
+
+t^b(h) is interpolated over the hit triangle's nodes (the bake points of the mesh it belongs to):
+each hit keeps one node, the corner j chosen with probability equal to its barycentric weight,
+so the entry is an unbiased estimate of the linear interpolation with one matrix entry per hit
+(core.transfer.bounce). The choice is a hash of (point, direction), so a bake does not depend on threads
+or slicing. A hit on a triangle's back face (the ray travels along its normal) reflects nothing.
+
+Memory: one entry per front-face hit, 4 + 4 C bytes while the shadow pass runs (node int32, C =
+1 or 3 float32 weights, the hit surface's albedo per colour channel times 4 / N max(0, n . w);
+the rows as runs, one per point and block).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import numpy.typing as npt
+
+
+def _hash_unit(rows: np.ndarray, kdir: np.ndarray, seed: int) -> np.ndarray:
+    """Uniform [0, 1] float32 per (row, direction): murmur3's 32-bit finaliser of a mix."""
+    with np.errstate(over="ignore"):
+        h = rows.astype(np.uint32) * np.uint32(0x9E3779B1)
+        h ^= kdir.astype(np.uint32) * np.uint32(0x85EBCA77) + np.uint32(seed & 0xFFFFFFFF)
+        h ^= h >> np.uint32(16)
+        h *= np.uint32(0x85EBCA6B)
+        h ^= h >> np.uint32(13)
+        h *= np.uint32(0xC2B2AE35)
+        h ^= h >> np.uint32(16)
+    return np.multiply(h, np.float32(1.0 / 4294967296.0), dtype=np.float32, casting="unsafe")
+
+
+class HitTransport:
+    """Turns a shadow pass's hits into transport entries (the `hit_sink` of a TransferComputation).
+
+    vertices, triangles: the occluder's triangle soup (the primitive ids the occluder returns
+    index `triangles`); node_triangles: (T, 3) the node of each triangle corner (-1: the triangle
+    reflects nothing); albedo: a scalar, (T,) or (T, C) diffuse albedo per triangle, clamped to
+    [0, 1]; n_dirs: the size of the direction set; orientation: None or (T,) +1 / -1, the sign
+    by which a triangle's winding normal (b - a) x (c - a) points out of its front face.
+    """
+
+    def __init__(
+        self,
+        vertices: npt.ArrayLike,
+        triangles: npt.ArrayLike,
+        node_triangles: npt.ArrayLike,
+        albedo: npt.ArrayLike,
+        n_dirs: int,
+        seed: int = 0,
+        orientation: npt.ArrayLike | None = None,
+    ) -> None:
+        v = np.asarray(vertices, dtype=np.float32).reshape(-1, 3)
+        t = np.asarray(triangles).reshape(-1, 3)
+        nodes = np.asarray(node_triangles, dtype=np.int32).reshape(-1, 3)
+        if len(nodes) != len(t):
+            raise ValueError("node_triangles must have one row per triangle")
+        flip = None if orientation is None else np.flatnonzero(np.asarray(orientation).reshape(-1) < 0)
+        if flip is not None and len(flip):
+            # A triangle whose winding is reversed (a mirrored object) is stored as (a, c, b), so
+            # that (b - a) x (c - a) points out of every front face.
+            t, nodes = t.copy(), nodes.copy()
+            t[flip], nodes[flip] = t[flip][:, [0, 2, 1]], nodes[flip][:, [0, 2, 1]]
+        # (T, 9) rows (a, b - a, c - a): one take() of 36-byte rows per batch of hits.
+        self.corners = np.take(v, t, axis=0).reshape(-1, 9)
+        self.corners[:, 3:6] -= self.corners[:, 0:3]
+        self.corners[:, 6:9] -= self.corners[:, 0:3]
+        self.node_triangles = nodes
+        self._corner_nodes = nodes.reshape(-1)  # node of corner j of triangle p at 3 p + j
+        self._all_nodes = not np.any(self._corner_nodes < 0)
+        rho = np.asarray(albedo, dtype=np.float64)
+        rho = np.broadcast_to(rho, (len(t), 1)) if rho.ndim == 0 else rho.reshape(len(t), -1)
+        self.albedo = np.clip(np.nan_to_num(rho, nan=0.0), 0.0, 1.0).astype(np.float32)
+        self.channels = self.albedo.shape[1]
+        self.scale = 4.0 / float(n_dirs)
+        self._weights = (self.albedo * np.float32(self.scale)).astype(np.float32)  # per triangle
+        self.seed = int(seed)
+
+    def __call__(
+        self,
+        rows: np.ndarray,
+        kdir: np.ndarray,
+        dirs: np.ndarray,
+        cosines: np.ndarray,
+        prims: np.ndarray,
+        origins: np.ndarray,
+    ) -> tuple[RowRuns | np.ndarray, np.ndarray, np.ndarray]:
+        """(rows, nodes int32, weights (m, C) float32) of the hits (rows as RowRuns, or an int32
+        array if they were not sorted): point `rows[j]`'s ray from `origins[j]` along `dirs[j]`,
+        with max(0, n . w) `cosines[j]`, hit triangle `prims[j]` first."""
+        prims = np.asarray(prims)
+        rows = np.asarray(rows)
+        ud, vd, det = hit_barycentrics(np.take(self.corners, prims, axis=0), origins, dirs)
+        xd = _hash_unit(rows, np.asarray(kdir), self.seed)
+        # Corner 1 where xi < u, 2 where u <= xi < u + v, else 0; compared times det (> 0 on the
+        # front faces, the only hits kept), which saves the division.
+        xd *= det
+        first = xd < ud
+        vd += ud
+        second = xd < vd
+        second |= first  # (u + v < u only off the triangle, by rounding: corner 1 then)
+        index = prims * np.int32(3)
+        index += second
+        index += second
+        index -= first
+        nodes = self._corner_nodes[index]
+        keep = det > 0.0  # det = -w . ((b - a) x (c - a)): the ray meets a front face
+        if not self._all_nodes:
+            keep &= nodes >= 0
+        weights = np.take(self._weights, prims[keep], axis=0)
+        weights *= np.asarray(cosines)[keep].astype(np.float32)[:, None]
+        rows = rows[keep].astype(np.int32)
+        # A block's rays are point-major, so its rows come sorted: kept as runs (4 bytes a hit less).
+        runs = RowRuns(rows) if len(rows) < 2 or not np.any(rows[1:] < rows[:-1]) else rows
+        return runs, nodes[keep], weights
+
+
+class LateSink:
+    """A hit sink whose HitTransport comes later (set()), so that the shadow pass can start before
+    the tables it needs (every part's nodes, the albedo) are read: a slice's hits that arrive
+    before are kept as they came, in a callable that makes their entries (the computation calls
+    it when it collects the slice, in its caller's thread)."""
+
+    def __init__(self) -> None:
+        self.sink = None
+
+    def set(self, sink: HitTransport) -> None:
+        self.sink = sink
+
+    def __call__(self, *hits):
+        sink = self.sink
+        return sink(*hits) if sink is not None else functools.partial(self._late, hits)
+
+    def _late(self, hits):
+        if self.sink is None:
+            raise RuntimeError("the hits were collected before their sink was set")
+        return self.sink(*hits)
+
+
+def hit_barycentrics(corners: np.ndarray, origins: npt.ArrayLike, dirs: npt.ArrayLike):
+    """(u det, v det, det) float32 of rays o + s w meeting triangles with rows (a, e1, e2) of
+    `corners` (m, 9), hit = a + u e1 + v e2, by Moller and Trumbore (1997): p = w x e2,
+    q = (o - a) x e1, det = e1 . p, u det = (o - a) . p, v det = w . q.
+
+    Component-major copies first: numpy's arithmetic on the strided columns of (m, 9) and
+    (m, 3) rows costs about twice the copies and the contiguous arithmetic together (measured).
+    """
+    c = np.ascontiguousarray(corners.T)
+    a, e1, e2 = c[0:3], c[3:6], c[6:9]
+    d = np.ascontiguousarray(np.asarray(dirs, dtype=np.float32).T)
+    t = np.ascontiguousarray(np.asarray(origins, dtype=np.float32).T)
+    t -= a
+    scratch = np.empty(len(c[0]), dtype=np.float32)
+    p = _cross_rows(d, e2, scratch)
+    det = _dot_rows(e1, p, scratch)
+    ud = _dot_rows(t, p, scratch)
+    vd = _dot_rows(d, _cross_rows(t, e1, scratch, out=p), scratch)
+    return ud, vd, det
+
+
+def _cross_rows(a, b, scratch, out=None):
+    """a x b for vectors given as 3 component rows (3, m); scratch: an (m,) buffer."""
+    if out is None:
+        out = np.empty((3, len(scratch)), dtype=np.float32)
+    for i, (j, k) in enumerate(((1, 2), (2, 0), (0, 1))):
+        np.multiply(a[j], b[k], out=out[i])
+        np.multiply(a[k], b[j], out=scratch)
+        out[i] -= scratch
+    return out
+
+
+def _dot_rows(a, b, scratch):
+    out = a[0] * b[0]
+    for i in (1, 2):
+        np.multiply(a[i], b[i], out=scratch)
+        out += scratch
+    return out
+
+
+class RowRuns:
+    """The rows of sorted entries as runs: row ids[k] repeated counts[k] times (`+=` shifts them)."""
+
+    __slots__ = ("ids", "counts")
+
+    def __init__(self, rows: np.ndarray) -> None:
+        start = np.flatnonzero(np.r_[True, rows[1:] != rows[:-1]]) if len(rows) else np.zeros(0, np.intp)
+        self.ids = rows[start].astype(np.int32)
+        self.counts = np.diff(np.r_[start, len(rows)]).astype(np.int64)
+
+    @classmethod
+    def from_runs(cls, ids: np.ndarray, counts: np.ndarray) -> RowRuns:
+        runs = cls.__new__(cls)
+        runs.ids = np.asarray(ids).astype(np.int32)
+        runs.counts = np.asarray(counts, dtype=np.int64)
+        return runs
+
+    def __len__(self) -> int:
+        return int(self.counts.sum())
+
+    def __iadd__(self, offset):
+        self.ids += offset
+        return self
+
+    def expand(self) -> np.ndarray:
+        return np.repeat(self.ids, self.counts)
