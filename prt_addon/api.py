@@ -156,6 +156,9 @@ def bake(
     self_shadow_only: bool = False,
     progress: Callable[[float, str], None] | None = None,
     bounces: int = 0,
+    target: str = "VERTICES",
+    uv_map: str | None = None,
+    resolution: int | None = None,
     **options: Any,
 ) -> BakeReport:
     """Bake diffuse SH transfer into mesh objects (docs/bake.md, storage: docs/storage.md).
@@ -167,10 +170,17 @@ def bake(
     bounces: diffuse reflections between the world and the receiver, 0 to 8 (the count of
     Cycles' Light Paths > Max Bounces > Diffuse); 0 is the direct transfer. Bounced light takes
     each surface's albedo from its material (docs/bake.md, "Interreflection").
+    target: 'VERTICES' (FLOAT_COLOR attributes per vertex or face corner) or 'TEXELS' (a float
+    image per object, sampled through a lightmap UV map: docs/texels.md).
+    uv_map (TEXELS): the UV map to bake into; None: the first UV map whose name contains
+    "lightmap", else a new UV map "PRT Lightmap" made by Smart UV Project (the others untouched).
+    resolution (TEXELS): texels per side for every object, or None for options' texel_density
+    (texels per metre of surface, default 20).
     progress: optional callable(fraction, text) after each chunk; an exception raised there
     aborts the bake and leaves every mesh unchanged.
     options: cull=True (skip rays where nothing can occlude), depsgraph, chunk_rays, threads
-    (None, the default: Blender's own setting, Render Properties > Performance > Threads).
+    (None, the default: Blender's own setting, Render Properties > Performance > Threads),
+    texel_density.
 
     Returns a BakeReport (seconds, rays_traced, rays_skipped and the reasons, backend,
     error_estimate, error_estimate_relative, objects, skipped). Raises ValueError (BakeError)
@@ -190,6 +200,9 @@ def bake(
         self_shadow_only=self_shadow_only,
         progress=progress,
         bounces=bounces,
+        target=target,
+        uv_map=uv_map,
+        resolution=resolution,
         **options,
     )
 

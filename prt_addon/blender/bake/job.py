@@ -16,7 +16,7 @@ from ...core.sh import frames
 from ...core.sh.directions import make_directions
 from ...core.trace import raytrace
 from ...core.trace.occluders import LazyOccluder
-from ...core.transfer import bounce_hits, quadrature as transfer
+from ...core.transfer import bounce_hits, quadrature as transfer, split
 from ...core.transfer.mesh import concatenate_parts
 from ..scene import mesh_read, storage
 from ..scene.occluders import BUILDERS
@@ -24,6 +24,7 @@ from ..scene.parts import scene_parts
 from .bounces import BounceSystem
 from .plans import check_object
 from .settings import BakeError, BakeReport, BakeSettings, blender_threads, fallback_note, resolve_backend
+from .texels import texel_geometry, texel_image
 
 # Progress weight of one bounce pass per node, against one traced point (measured ~0.1 to 0.3).
 PASS_WORK = 0.2
@@ -39,6 +40,7 @@ class BakeJob:
             order=self.settings.order,
             samples=self.settings.samples,
             direction_set=self.settings.direction_set,
+            target=self.settings.target,
         )
         self._cancel = False
         objects = list(objects or [])
@@ -80,7 +82,10 @@ class BakeJob:
             # those are kept as they came until the slice is collected (core.transfer.bounce_hits.LateSink).
             for index, plan in enumerate(self.plans):
                 mesh_eval, positions = plan.source
-                plan.points = mesh_read.bake_points(mesh_eval, plan.matrix, positions)
+                if self.settings.target == "TEXELS":
+                    self._texel_plan(plan, mesh_eval, positions)
+                else:
+                    plan.points = mesh_read.bake_points(mesh_eval, plan.matrix, positions)
                 plan.source = None
                 plan.computation = self._computation(plan)
                 if index == 0:
@@ -92,7 +97,7 @@ class BakeJob:
         except BaseException:
             self.close()
             raise
-        self.total_points = sum(len(p.points.positions) for p in self.plans)
+        self.total_points = sum(p.computation.total for p in self.plans)
         self.bounce_points = self.bounce.extra_points if self.bounce else 0
         self._pass_work = PASS_WORK * self.bounce.n_nodes * self.settings.bounces if self.bounce else 0.0
 
@@ -131,7 +136,35 @@ class BakeJob:
                 boxes = None
             plan.occluder, plan.boxes = occluder, boxes
 
+    def _texel_plan(self, plan, mesh_eval, positions):
+        s = self.settings
+        try:
+            plan.texels = texel_geometry(plan, mesh_eval, positions, s.uv_map, s.resolution, s.texel_density)
+        except BakeError as error:
+            raise BakeError(f"'{plan.name}' {error}") from None
+        res = plan.texels.resolution
+        self.report.texel_notes += [f"'{plan.name}': {note}" for note in plan.texels.notes]
+        self.report.texel_notes.append(
+            f"'{plan.name}': {res} x {res} texels of UV map '{plan.texels.uv_name}', "
+            f"{len(plan.texels.samples.texels):,} covered"
+        )
+
     def _computation(self, plan):
+        if plan.texels is not None:
+            samples = plan.texels.samples
+            return split.SplitComputation(
+                samples.positions,
+                samples.normals,
+                self.directions,
+                self.settings.order,
+                occluder=plan.occluder,
+                offset=plan.offset,
+                self_occludes=plan.self_occludes,
+                other_boxes=plan.boxes,
+                chunk_rays=self.settings.chunk_rays,
+                threads=self.settings.threads,
+                pool=self._pool,
+            )
         # The point's own surface moves each origin into its own faces as well as along the
         # normal, so that rays from a point in another surface's plane (a box standing on the
         # ground) do not slip under it (docs/bake.md, "Contacts"). Unshadowed: not needed.
@@ -242,7 +275,10 @@ class BakeJob:
             if backend != "NONE":
                 backends.add(backend)
             local = frames.to_local_frame(comp.coeffs, plan.matrix[:3, :3])
-            values = local if plan.points.scatter is None else local[plan.points.scatter]
+            if plan.texels is not None:
+                values = texel_image(plan.texels.samples, local, plan.texels.seams)
+            else:
+                values = local if plan.points.scatter is None else local[plan.points.scatter]
             bounced = None
             if self.bounce is not None:
                 world = self.bounce.bounced[id(plan)]
@@ -272,7 +308,10 @@ class BakeJob:
                 "error_estimate_relative": result.error_relative(),
                 "bounces": int(s.bounces),
             }
-            items.append((plan.mesh, values, plan.points.domain, record, bounced))
+            if plan.texels is not None:
+                items.append((plan.mesh, values, "TEXEL", record, (plan.texels.uv_name, plan.texels.created_uvs)))
+            else:
+                items.append((plan.mesh, values, plan.points.domain, record, bounced))
         storage.write_bakes(items)
         err = np.concatenate(errors)
         rep.ok = True
@@ -287,6 +326,7 @@ class BakeJob:
         rep.skipped_unoccludable = stats_all.skipped_unoccludable
         rep.skipped_shadows_off = stats_all.skipped_shadows_off
         rep.points = int(len(err))
+        rep.texels = sum(len(p.texels.samples.texels) for p in self.plans if p.texels is not None)
         rep.error_estimate = float(np.sqrt(np.mean(err**2))) if len(err) else 0.0
         rms_norm = float(np.sqrt(square_norm_sum / len(err))) if len(err) else 0.0
         rep.error_estimate_relative = rep.error_estimate / rms_norm if rms_norm > 0 else 0.0
@@ -319,12 +359,30 @@ def bake(
     chunk_rays=transfer.CHUNK_RAYS,
     threads=None,
     bounces=0,
+    target="VERTICES",
+    uv_map=None,
+    resolution=None,
+    texel_density=20.0,
 ):
     """Bake and write; returns a BakeReport. Raises BakeError when nothing can be baked."""
     if objects is not None and isinstance(objects, bpy.types.Object):
         objects = [objects]
     settings = BakeSettings(
-        order, samples, direction_set, seed, shadows, self_shadow_only, backend, cull, chunk_rays, threads, bounces
+        order,
+        samples,
+        direction_set,
+        seed,
+        shadows,
+        self_shadow_only,
+        backend,
+        cull,
+        chunk_rays,
+        threads,
+        bounces,
+        target,
+        uv_map,
+        resolution,
+        texel_density,
     )
     job = BakeJob(objects, settings, depsgraph)
     return job.run(progress)

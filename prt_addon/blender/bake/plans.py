@@ -27,6 +27,7 @@ class _Plan:
     occluder: object = None
     boxes: object = None  # (K, 2, 3) boxes of the other occluders, or None (no culling)
     source: object = None  # (evaluated mesh, its local positions) until the points are read
+    texels: object = None  # texels.TexelGeometry of a texel bake
 
 
 def _modifier_names(obj):

@@ -10,6 +10,8 @@ from ...core.transfer import quadrature as transfer
 from ..scene.occluders import auto_backend
 
 BACKENDS = ("AUTO", "EMBREE", "BVHTREE")
+TARGETS = ("VERTICES", "TEXELS")
+MAX_RESOLUTION = 4096
 
 
 MAX_ORDER = 16
@@ -34,6 +36,10 @@ class BakeSettings:
     chunk_rays: int = transfer.CHUNK_RAYS
     threads: int = None  # None: Blender's own setting (Render > Performance > Threads)
     bounces: int = 0  # diffuse reflections between the world and the receiver (core.transfer.bounce)
+    target: str = "VERTICES"  # where the transfer is stored: VERTICES (attributes) or TEXELS (an image)
+    uv_map: str | None = None  # TEXELS: the UV map to bake into (None: a lightmap UV map, found or made)
+    resolution: int | None = None  # TEXELS: texels per side (None: from texel_density)
+    texel_density: float = 20.0  # TEXELS: texels per metre of surface when resolution is None
 
     def validate(self):
         if (
@@ -72,9 +78,31 @@ class BakeSettings:
             raise BakeError(
                 "bounces need the whole scene's shadows: turn Self Shadow Only off (light bounces between objects)"
             )
+        self._validate_target()
         self.order, self.samples, self.seed = int(self.order), int(self.samples), int(self.seed)
         self.bounces = int(self.bounces)
         return self
+
+    def _validate_target(self):
+        self.target = str(self.target).upper()
+        if self.target not in TARGETS:
+            raise BakeError(f"target must be one of {TARGETS}, got {self.target!r}")
+        if self.target != "TEXELS":
+            return
+        if self.bounces:
+            raise BakeError("bounces are baked per vertex for now: bake texels with Bounces 0, or bake vertices")
+        res = self.resolution
+        if res is not None and (isinstance(res, bool) or not isinstance(res, (int, np.integer)) or res < 1):
+            raise BakeError(f"resolution must be None (from the texel density) or an integer >= 1, got {res!r}")
+        if res is not None and res > MAX_RESOLUTION:
+            raise BakeError(f"resolution {res} is above the largest lightmap, {MAX_RESOLUTION} texels per side")
+        density = self.texel_density
+        if isinstance(density, bool) or not isinstance(density, (int, float, np.number)) or not density > 0:
+            raise BakeError(f"texel density must be a number of texels per metre > 0, got {density!r}")
+        if self.uv_map is not None and not isinstance(self.uv_map, str):
+            raise BakeError(f"uv_map must be the name of a UV map or None, got {self.uv_map!r}")
+        self.resolution = None if res is None else int(res)
+        self.uv_map = self.uv_map or None
 
 
 @dataclass
@@ -103,6 +131,13 @@ class BakeReport:
     bounce_seconds: float = 0.0  # of the bounce passes (included in seconds)
     bounce_points: int = 0  # points of meshes that are not baked, traced only for the bounces
     albedo_notes: list = field(default_factory=list)  # e.g. textured colours taken as their mean
+    target: str = "VERTICES"
+    texels: int = 0  # covered texels of a texel bake
+    texel_notes: list = field(default_factory=list)  # the UV maps made, resolutions, faces not baked
+
+    @property
+    def element(self):
+        return "texel" if self.target == "TEXELS" else "vertex"
 
     @property
     def rays_per_second(self):
@@ -132,7 +167,7 @@ class BakeReport:
             lines = [
                 f"Baked {len(self.objects)} object(s): {', '.join(self.objects)}",
                 f"Time: {self.seconds:.2f} s, rays traced with {engine}",
-                f"Order {self.order}: {self.order * self.order} numbers per vertex; "
+                f"Order {self.order}: {self.order * self.order} numbers per {self.element}; "
                 f"{self.samples} directions ({self.direction_set.lower()})",
                 f"Rays traced: {self.rays_traced:,}",
                 f"Rays skipped: {self.rays_skipped:,} ({self.skipped_below_horizon:,} below the surface, "
@@ -147,7 +182,7 @@ class BakeReport:
                     f"; {self.bounce_points:,} points of unbaked meshes traced for them" if self.bounce_points else ""
                 )
                 lines.append(f"Bounces: {self.bounces} ({colour}), {self.bounce_seconds:.2f} s, no extra rays{extra}")
-            lines += self.albedo_notes
+            lines += self.albedo_notes + self.texel_notes
         if self.note:
             lines.append(self.note)
         lines += [f"Skipped '{name}': {reason}" for name, reason in self.skipped]

@@ -13,7 +13,7 @@ from ...core.sh import basis as _sh, frames as _frames, rotation as _rotation
 from .. import caches
 from ..display.redraw import tag_redraw
 from ..world import nodes as _nodes, projection as _world
-from . import storage
+from . import storage, texel_shading
 from .light_shading import light_radiance
 
 _light_overrides = {}  # scene key -> (n*n, 3) float64 unrotated light
@@ -123,7 +123,7 @@ def shade(obj, scene=None):
     t = direct + bounced, the bounced part also lit by the split lights' SH), plus each split light's
     power / pi * max(0, n . s) * V with V traced against the scene's meshes
     (light_shading.light_radiance). One row per vertex for a POINT bake, per face corner for a
-    CORNER bake."""
+    CORNER bake; for a TEXEL bake (res, res, 3), one value per texel (texel_shading)."""
     scene = scene if scene is not None else bpy.context.scene
     depsgraph = bpy.context.evaluated_depsgraph_get()  # flushes pending edits into matrix_world
     mesh = obj.data
@@ -133,9 +133,12 @@ def shade(obj, scene=None):
     light = object_light(obj, scene, info.order)
     if light is None:
         raise ValueError("the scene has no PRT lighting (project the world first)")
+    lights = world_lights(scene)
+    if info.domain == "TEXEL":  # (res, res, 3) per texel, laid out as Image.pixels
+        radiance = texel_shading.sky_radiance(info, light)
+        return radiance + texel_shading.light_radiance(obj, depsgraph, lights, info) if lights else radiance
     transfer = storage.read_transfer(mesh, info, padded=True).astype(np.float64)
     n2 = info.order * info.order
-    lights = world_lights(scene)
     radiance = transfer[:, :n2] @ light
     bounced = storage.read_bounce(mesh, info)
     if bounced is not None:

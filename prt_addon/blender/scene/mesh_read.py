@@ -142,3 +142,39 @@ def bake_points(mesh, matrix4, positions=None):
         inverse.astype(np.int64),
         vert.astype(np.int64),
     )
+
+
+def uv_map_names(mesh):
+    """The names of the mesh's UV maps, in order."""
+    return [layer.name for layer in mesh.uv_layers]
+
+
+def read_corner_uvs(mesh, uv_name):
+    """(corners, 2) float32 UVs of the UV map `uv_name` (a FLOAT2 corner attribute)."""
+    out = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+    if len(out):
+        mesh.attributes[uv_name].data.foreach_get("vector", out)
+    return out.reshape(-1, 2)
+
+
+def uvs_fingerprint(corner_uvs):
+    """A hash of (corners, 2) UV coordinates as float32: a texel bake is stale once they change."""
+    h = hashlib.blake2b(digest_size=8)
+    h.update(np.ascontiguousarray(corner_uvs, dtype=np.float32).tobytes())
+    return h.hexdigest()
+
+
+def uv_fingerprint(mesh, uv_name):
+    """uvs_fingerprint of the mesh's UV map `uv_name`."""
+    return uvs_fingerprint(read_corner_uvs(mesh, uv_name))
+
+
+def world_triangles(mesh, matrix4, positions=None):
+    """The loop triangles with their corners, for a texel bake: (corners (T, 3) loop indices,
+    vertices (T, 3), world positions (T, 3, 3), world unit corner normals (T, 3, 3))."""
+    positions = read_positions(mesh) if positions is None else positions
+    corners, _faces = read_triangle_corners(mesh, positions)
+    vertices = read_corner_verts(mesh)[corners]
+    world = transform_points(matrix4, positions)[vertices]
+    normals = transform_normals(matrix4, read_corner_normals(mesh))[corners]
+    return corners, vertices, world, normals

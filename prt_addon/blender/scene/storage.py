@@ -1,7 +1,8 @@
 """The on-mesh storage format of a bake: transfer attributes, the bake record, bake status.
 
-Writing: the FLOAT_COLOR attributes `prt_tKK` and the record mesh["prt_bake"], all meshes of a
-bake at once or none (write_bakes restores the previous state if anything fails). Reading: one
+Writing: the FLOAT_COLOR attributes `prt_tKK` (vertex and corner bakes) or a float image (texel
+bakes, texel_storage) and the record mesh["prt_bake"], all meshes of a bake at once or none
+(write_bakes restores the previous state if anything fails). Reading: one
 record reader that checks the format version, and one status function (bake_state) whose views
 are bake_status (the UI and the API) and usable_bake (the display). docs/storage.md is the
 contract.
@@ -16,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import caches
+from . import texel_storage
 from .mesh_read import topology_fingerprint
 
 PREFIX = "prt_t"
@@ -24,7 +26,7 @@ PREFIX = "prt_t"
 RECORD = "prt_bake"
 
 
-FORMAT_VERSION = 2  # 2: interreflected bakes (bounce attributes); a bake without bounces is still written as 1
+FORMAT_VERSION = 3  # 2: interreflected bakes (bounce attributes); 3: texel bakes. Others are still written as 1
 
 
 _ATTR_RE = re.compile(r"^prt_t\d{2,}$")  # prt_t00 .. prt_t99, then prt_t100 .. (bounced bakes)
@@ -115,6 +117,19 @@ def restore(mesh, snap):
     mesh.update()
 
 
+def write_texels(mesh, image, record, uv_name, created_uvs, staged):
+    """Write a texel bake's (res, res, n*n) coefficients as a staged image (committed by
+    write_bakes), the UV map it made (`created_uvs`, (corners, 2), or None) and the record."""
+    for name in transfer_attribute_names(mesh):
+        _remove(mesh, name)
+    uv_name = texel_storage.write_uv_map(mesh, uv_name, created_uvs)
+    staged.append((mesh, texel_storage.stage_image(texel_storage.image_name(mesh), image)))
+    fields = texel_storage.record_fields(mesh, image.shape[0], uv_name)
+    count = attribute_count(int(record["order"]))
+    mesh[RECORD] = dict(record, count=count, domain="TEXEL", bounce_channels=0, version=FORMAT_VERSION, **fields)
+    mesh.update()
+
+
 def write_transfer(mesh, values, domain, record, bounce=None):
     """Write (E, n*n) float32 coefficients as prt_tKK attributes and the record on one mesh;
     bounce: None or the (E, C, n*n) bounced transfer, written after them channel by channel,
@@ -149,15 +164,42 @@ def write_transfer(mesh, values, domain, record, bounce=None):
 
 
 def write_bakes(items):
-    """items: [(mesh, values, domain, record[, bounce])]. All are written, or none (state restored)."""
+    """items: [(mesh, values, domain, record[, bounce])], for a TEXEL domain [(mesh, image,
+    "TEXEL", record, (uv name, created UVs or None))]. All are written, or none (state restored:
+    attributes, records, the UV maps made; the previous images are replaced only at the end)."""
     snapshots = [(item[0], snapshot(item[0])) for item in items]
+    old_images = {item[0].name: _record_image(snap) for item, (_m, snap) in zip(items, snapshots)}
+    staged, made_uvs = [], []
     try:
-        for item in items:
-            write_transfer(*item)
+        for mesh, values, domain, record, extra in (tuple(item) + (None,) * (5 - len(item)) for item in items):
+            if domain == "TEXEL":
+                uv_name, created = extra
+                if created is not None and uv_name not in mesh.uv_layers:
+                    made_uvs.append((mesh, uv_name))
+                write_texels(mesh, values, record, uv_name, created, staged)
+            else:
+                write_transfer(mesh, values, domain, record, extra)
     except BaseException:
+        for image in (image for _mesh, image in staged):
+            texel_storage.discard_image(image)
         for mesh, snap in snapshots:
             restore(mesh, snap)
+        for mesh, uv_name in made_uvs:
+            if uv_name in mesh.uv_layers:
+                mesh.uv_layers.remove(mesh.uv_layers[uv_name])
         raise
+    names = {}
+    for mesh, image in staged:
+        names[mesh.name] = texel_storage.commit_image(image, texel_storage.image_name(mesh))
+        mesh[RECORD]["image"] = names[mesh.name]
+    for mesh_name, old in old_images.items():
+        if old and old != names.get(mesh_name):
+            texel_storage.remove_image(old)
+
+
+def _record_image(snap):
+    record = snap["record"]
+    return record.get("image") if isinstance(record, dict) and record.get("domain") == "TEXEL" else None
 
 
 @dataclass
@@ -169,6 +211,9 @@ class BakeRecord:
     domain: str
     record: object  # the IDProperty group itself
     channels: int = 0  # colour channels of the bounced transfer: 0 (direct only), 1 or 3
+    resolution: int = 0  # texels per side (TEXEL domain)
+    image: object = None  # the transfer image (TEXEL domain)
+    uv_map: str = ""  # the UV map baked into (TEXEL domain)
 
 
 def read_bake_record(mesh):
@@ -194,13 +239,29 @@ def read_bake_record(mesh):
         channels = int(record.get("bounce_channels", 0))
     except (TypeError, ValueError):
         return None, "the bake record is incomplete"
-    if order < 1 or count != attribute_count(order) or domain not in ("POINT", "CORNER") or channels not in (0, 1, 3):
+    if order < 1 or count != attribute_count(order) or domain not in DOMAINS or channels not in (0, 1, 3):
         return None, "the bake record is inconsistent"
+    if domain == "TEXEL":
+        return _read_texel_record(record, order, count)
     for k in range(count * (1 + channels)):
         attr = mesh.attributes.get(attribute_name(k))
         if attr is None or attr.domain != domain or attr.data_type != "FLOAT_COLOR":
             return None, f"attribute {attribute_name(k)} is missing or changed"
     return BakeRecord(order, count, domain, record, channels), ""
+
+
+DOMAINS = ("POINT", "CORNER", "TEXEL")
+
+
+def _read_texel_record(record, order, count):
+    try:
+        res, name, uv_map = int(record["resolution"]), str(record["image"]), str(record["uv_map"])
+    except (KeyError, TypeError, ValueError):
+        return None, "the bake record is incomplete"
+    image = texel_storage.find_image(name, res, count)
+    if image is None:
+        return None, f"its transfer image '{name}' is missing or was resized"
+    return BakeRecord(order, count, "TEXEL", record, 0, res, image, uv_map), ""
 
 
 def read_transfer(mesh, bake=None, padded=False):
@@ -298,8 +359,12 @@ def bake_state(mesh, topology="EXACT"):
         return BakeState("STALE", f"{why}: leave Edit Mode to check the bake", why, bake)
     if topology != "SKIP":
         problem = stale_topology(mesh, bake.record, use_cache=topology == "CACHED")
+        if not problem and bake.domain == "TEXEL":
+            problem = texel_storage.stale_uv_map(mesh, bake)
         if problem:
             return BakeState("STALE", f"{problem}: bake again", problem, bake)
+    if bake.domain == "TEXEL":
+        return BakeState("FRESH", f"order {bake.order}, {bake.resolution} x {bake.resolution} texels", "", bake)
     return BakeState("FRESH", f"order {bake.order}, {bake.domain.lower()} domain", "", bake)
 
 
@@ -320,6 +385,8 @@ def usable_bake(mesh, check_topology=True):
         return None, state.problem
     if state.status == "STALE" and state.problem == TOPOLOGY_CHANGED:
         return state.bake, "topology changed since the bake: re-bake"
+    if state.status == "STALE" and state.problem.startswith("its UV map"):
+        return state.bake, f"{state.problem}: re-bake"
     return state.bake, ""
 
 

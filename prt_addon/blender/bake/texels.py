@@ -1,0 +1,171 @@
+"""Texel bakes: each object's lightmap UV map (found, or unwrapped and kept aside), its resolution, its samples.
+
+A bake never changes a mesh before it writes: a UV map the bake makes is unwrapped on a
+temporary layer, read into numpy and removed again at once; finish() writes it back with the
+transfer images, all or nothing (storage.write_bakes).
+"""
+
+from dataclasses import dataclass
+
+import bpy
+import numpy as np
+
+from ...core.transfer import lightmap, texels
+from ..scene import mesh_read
+from .settings import MAX_RESOLUTION, BakeError
+
+LIGHTMAP_UV_NAME = "PRT Lightmap"  # the UV map a texel bake makes when the mesh has no lightmap UV map
+DEFAULT_DENSITY = 20.0  # texels per metre of surface, when no resolution is given
+MIN_RESOLUTION = 8
+PACKING = 0.6  # the UV area Smart UV Project is expected to cover, for the first resolution guess
+GUTTER = 4  # texels filled around each chart (core.transfer.lightmap.dilate)
+
+
+@dataclass
+class TexelGeometry:
+    """What a texel bake of one object needs of its mesh (world space), and the map it bakes into."""
+
+    uv_name: str
+    created_uvs: object  # (corners, 2) float32 UVs to write as a new UV map at finish(), or None
+    resolution: int
+    samples: object  # core.transfer.texels.TexelSamples (world space)
+    seams: object  # core.transfer.lightmap.SeamPairs
+    uv_fingerprint: str
+    notes: list
+
+
+def lightmap_uv_name(mesh, requested):
+    """The UV map to bake into: `requested` when given (it must exist), else the first UV map whose
+    name contains "lightmap" (any case), else None (the bake makes one). Raises BakeError."""
+    names = mesh_read.uv_map_names(mesh)
+    if requested:
+        if requested not in names:
+            have = ", ".join(f"'{n}'" for n in names) or "none"
+            raise BakeError(f"has no UV map '{requested}' (its UV maps: {have}): pick one, or leave UV Map empty")
+        return requested
+    for name in names:
+        if "lightmap" in name.lower():
+            return name
+    return None
+
+
+def resolution_for(world_area, uv_area, density):
+    """Texels per side so that a metre of surface gets `density` texels: res = density *
+    sqrt(world area / UV area), rounded up to a multiple of 4 within [MIN, MAX]_RESOLUTION."""
+    if not (world_area > 0 and uv_area > 0):
+        return MIN_RESOLUTION
+    res = int(np.ceil(density * np.sqrt(world_area / uv_area) / 4.0)) * 4
+    return int(min(MAX_RESOLUTION, max(MIN_RESOLUTION, res)))
+
+
+def _areas(positions, uvs):
+    """(world area, UV area) of triangles given as (T, 3, 3) and (T, 3, 2)."""
+    world = 0.5 * np.linalg.norm(np.cross(positions[:, 1] - positions[:, 0], positions[:, 2] - positions[:, 0]), axis=1)
+    e1, e2 = uvs[:, 1] - uvs[:, 0], uvs[:, 2] - uvs[:, 0]
+    uv = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    return float(world.sum()), float(uv.sum())
+
+
+def unwrap(obj, margin):
+    """(corners, 2) float32 UVs of a Smart UV Project of `obj` on a temporary UV map, which is
+    removed again: the mesh, its UV maps, selection and mode are left as they were."""
+    mesh = obj.data
+    layers = mesh.uv_layers
+    active, render = layers.active_index, next((i for i, uv in enumerate(layers) if uv.active_render), -1)
+    select = {kind: np.empty(len(getattr(mesh, kind)), dtype=bool) for kind in ("vertices", "edges", "polygons")}
+    hide = {kind: np.empty(len(getattr(mesh, kind)), dtype=bool) for kind in select}
+    for kind in select:
+        getattr(mesh, kind).foreach_get("select", select[kind])
+        getattr(mesh, kind).foreach_get("hide", hide[kind])
+    temporary = layers.new(name="PRT unwrap")
+    if temporary is None:
+        raise BakeError("cannot add a UV map for the lightmap (a mesh holds at most 8): remove one, or name one")
+    name = temporary.name
+    try:
+        layers.active = layers[name]
+        view_layer = bpy.context.view_layer
+        with bpy.context.temp_override(
+            active_object=obj, object=obj, selected_objects=[obj], selected_editable_objects=[obj]
+        ):
+            previous = view_layer.objects.active
+            view_layer.objects.active = obj
+            try:
+                bpy.ops.object.mode_set(mode="EDIT")
+                bpy.ops.mesh.reveal(select=False)
+                bpy.ops.mesh.select_all(action="SELECT")
+                bpy.ops.uv.smart_project(angle_limit=np.radians(66.0), island_margin=margin, area_weight=0.0)
+                bpy.ops.object.mode_set(mode="OBJECT")
+            finally:
+                view_layer.objects.active = previous
+        uvs = mesh_read.read_corner_uvs(mesh, name).copy()
+    finally:
+        if name in layers:
+            layers.remove(layers[name])
+        for kind in select:
+            getattr(mesh, kind).foreach_set("hide", hide[kind])
+            getattr(mesh, kind).foreach_set("select", select[kind])
+        if 0 <= active < len(layers):
+            layers.active_index = active
+        if 0 <= render < len(layers):
+            layers[render].active_render = True
+        mesh.update()
+    return uvs
+
+
+def texel_geometry(plan, mesh_eval, positions, uv_map, resolution, density):
+    """The TexelGeometry of a plan (bake.plans): the UV map, the resolution, the texel samples in
+    world space with the plan's ray offset as their inset from the triangles' edges."""
+    notes = []
+    mesh = plan.mesh
+    uv_name = lightmap_uv_name(mesh, uv_map)
+    created = None
+    corners, vertices, world, world_normals = mesh_read.world_triangles(mesh_eval, plan.matrix, positions)
+    if uv_name is None:
+        area = _areas(world, np.zeros((len(world), 3, 2)))[0]
+        guess = resolution or resolution_for(area, PACKING, density)
+        created = unwrap(plan.obj, margin=min(0.2, 2.0 * GUTTER / guess))
+        uv_name = LIGHTMAP_UV_NAME
+        corner_uvs = created
+        notes.append(f"made the UV map '{uv_name}' (Smart UV Project)")
+    elif uv_name in mesh_read.uv_map_names(mesh_eval):
+        corner_uvs = mesh_read.read_corner_uvs(mesh_eval, uv_name)
+    else:  # (a modifier dropped the map: the original's, same topology)
+        corner_uvs = mesh_read.read_corner_uvs(mesh, uv_name)
+    uvs = corner_uvs[corners].astype(np.float64)
+    if resolution is None:
+        world_area, uv_area = _areas(world, uvs)
+        resolution = resolution_for(world_area, uv_area, density)
+    samples = texels.texel_samples(uvs, world, world_normals, resolution, inset=plan.offset)
+    if samples.degenerate == len(uvs):
+        raise BakeError(f"UV map '{uv_name}' has no area (every face is a point or a line in UV space): unwrap it")
+    if len(samples.texels) == 0:
+        raise BakeError(f"UV map '{uv_name}' covers no texel at {resolution} x {resolution}: unwrap it into 0 to 1")
+    if samples.overlapping:
+        share = 100.0 * samples.overlapping / len(samples.texels)
+        raise BakeError(
+            f"UV map '{uv_name}' overlaps itself ({share:.1f} % of its texels lie under two faces: mirrored or "
+            "tiled texture UVs): a lightmap needs each face on its own texels. Leave UV Map empty to make one"
+        )
+    if samples.outside:
+        notes.append(f"{samples.outside} faces of UV map '{uv_name}' reach outside 0 to 1: those parts are not baked")
+    if samples.degenerate:
+        notes.append(f"{samples.degenerate} faces of UV map '{uv_name}' have no UV area and are not baked")
+    seams = lightmap.seam_pairs(vertices, uvs)
+    original = corner_uvs if created is not None else mesh_read.read_corner_uvs(mesh, uv_name)
+    fingerprint = mesh_read.uvs_fingerprint(original)
+    return TexelGeometry(uv_name, created, resolution, samples, seams, fingerprint, notes)
+
+
+def texel_image(samples, coeffs, seams, passes=GUTTER):
+    """(res, res, n*n) float32 transfer image of a texel bake: the covered texels' coefficients,
+    the gutter filled around each chart, the two sides of every seam made to agree."""
+    res = samples.resolution
+    image = np.zeros((res * res, coeffs.shape[1]), dtype=np.float64)
+    image[samples.texels] = coeffs
+    covered = np.zeros(res * res, dtype=bool)
+    covered[samples.texels] = True
+    image = image.reshape(res, res, -1)
+    covered = covered.reshape(res, res)
+    image = lightmap.dilate(image, covered, passes)
+    image = lightmap.fix_seams(image, seams, covered)
+    return np.asarray(image, dtype=np.float32)

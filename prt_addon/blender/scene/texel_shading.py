@@ -1,0 +1,60 @@
+"""`shade` for texel bakes: E/pi per texel of the transfer image, the split lights traced at each texel's samples."""
+
+import numpy as np
+
+from ...core.lights import visibility as light_visibility
+from ...core.transfer import lightmap, texels
+from ...core.transfer.mesh import matrix_to_numpy
+from . import mesh_read, texel_storage
+from .light_shading import RAYS_PER_LIGHT, scene_occluder
+
+GUTTER = 4  # the texels filled around each chart, as the bake fills them
+
+
+def texel_samples(obj_eval, bake):
+    """The texel samples of a texel bake as the bake placed them (world space)."""
+    mesh = obj_eval.data
+    matrix = matrix_to_numpy(obj_eval.matrix_world)
+    _corners, _vertices, world, normals = mesh_read.world_triangles(mesh, matrix)
+    corner_uvs = mesh_read.read_corner_uvs(mesh, bake.uv_map)
+    corners, _faces = mesh_read.read_triangle_corners(mesh)
+    inset = float(bake.record.get("offset", 0.0))
+    return texels.texel_samples(corner_uvs[corners].astype(np.float64), world, normals, bake.resolution, inset=inset)
+
+
+def sky_radiance(bake, light):
+    """(res, res, 3) max(sum_i L_i t_i, 0) per texel for a local-frame light (n*n, 3)."""
+    n2 = bake.order * bake.order
+    transfer = texel_storage.read_texel_transfer(bake).reshape(-1, n2).astype(np.float64)
+    res = bake.resolution
+    return np.maximum(transfer @ light[:n2], 0.0).reshape(res, res, 3)
+
+
+def light_radiance(obj, depsgraph, lights, bake, rays_per_light=RAYS_PER_LIGHT):
+    """(res, res, 3) radiance of the split lights per texel (white albedo): the mean over each
+    texel's samples of P/pi max(0, n.s) V, shadowed as the bake was; the gutter filled."""
+    res = bake.resolution
+    out = np.zeros((res * res, 3))
+    if not lights:
+        return out.reshape(res, res, 3)
+    obj_eval = obj.evaluated_get(depsgraph)
+    samples = texel_samples(obj_eval, bake)
+    record = bake.record
+    offset = float(record.get("offset", 0.0))
+    occluder = None
+    if bool(record.get("shadows", True)):
+        occluder = scene_occluder(depsgraph, obj_eval if bool(record.get("self_shadow_only", False)) else None)
+    count = len(samples.positions)
+    total = np.zeros((len(samples.texels), 3))
+    rays = max(1, -(-rays_per_light // count))  # the light's rays shared between the samples
+    for points, normals in zip(samples.positions, samples.normals):
+        visibility = None
+        if occluder is not None:
+            visibility = light_visibility.light_visibility(
+                points, normals, lights, occluder, rays_per_light=rays, offset=offset
+            )
+        total += light_visibility.light_irradiance(normals, lights, visibility)
+    out[samples.texels] = total / count
+    covered = np.zeros(res * res, dtype=bool)
+    covered[samples.texels] = True
+    return lightmap.dilate(out.reshape(res, res, 3), covered.reshape(res, res), GUTTER)

@@ -1,0 +1,149 @@
+"""The float images of texel bakes: their tile layout, writing them packed in the .blend, reading them.
+
+A texel bake of order n has n^2 coefficients per texel, four to an RGBA texel: G = ceil(n^2 / 4)
+tiles of res x res, laid out in a grid of `tiles_x` columns (tile g at column g % tiles_x, row
+g // tiles_x) so the image stays within the GPU's texture size. Row 0 of every tile is v = 0, as
+in Image.pixels. The images are Non-Color float images (is_data: the values are kept exactly,
+negative ones too), packed (saved in the .blend as OpenEXR) with a fake user.
+"""
+
+import math
+
+import bpy
+import numpy as np
+
+from .mesh_read import uv_fingerprint, uv_map_names
+
+IMAGE_PREFIX = "PRT "
+
+
+def image_name(mesh):
+    """The name users see for a mesh's transfer image: "PRT <mesh name>"."""
+    return f"{IMAGE_PREFIX}{mesh.name}"
+
+
+def tile_grid(groups):
+    """(tiles_x, tiles_y) of `groups` tiles: about square."""
+    tiles_x = max(1, math.ceil(math.sqrt(groups)))
+    return tiles_x, max(1, math.ceil(groups / tiles_x))
+
+
+def to_tiles(image):
+    """(res, res, 4 G) coefficients (padded with zeros to a multiple of 4) -> (H, W, 4) pixels."""
+    res = image.shape[0]
+    groups = -(-image.shape[2] // 4)
+    padded = np.zeros((res, res, 4 * groups), dtype=np.float32)
+    padded[..., : image.shape[2]] = image
+    tiles_x, tiles_y = tile_grid(groups)
+    out = np.zeros((tiles_y * res, tiles_x * res, 4), dtype=np.float32)
+    for g in range(groups):
+        row, col = divmod(g, tiles_x)
+        out[row * res : (row + 1) * res, col * res : (col + 1) * res] = padded[..., 4 * g : 4 * g + 4]
+    return out
+
+
+def from_tiles(pixels, res, groups):
+    """(H, W, 4) pixels -> (res, res, 4 G) coefficients (the inverse of to_tiles)."""
+    tiles_x, _ = tile_grid(groups)
+    out = np.empty((res, res, 4 * groups), dtype=np.float32)
+    for g in range(groups):
+        row, col = divmod(g, tiles_x)
+        out[..., 4 * g : 4 * g + 4] = pixels[row * res : (row + 1) * res, col * res : (col + 1) * res]
+    return out
+
+
+def write_uv_map(mesh, uv_name, created_uvs):
+    """Add the UV map a bake made (`created_uvs`, (corners, 2)) as `uv_name`; returns its name."""
+    if created_uvs is None:
+        return uv_name
+    layer = mesh.uv_layers.get(uv_name) or mesh.uv_layers.new(name=uv_name, do_init=False)
+    if layer is None:
+        raise ValueError(f"cannot add the UV map '{uv_name}' to '{mesh.name}' (a mesh holds at most 8)")
+    mesh.attributes[layer.name].data.foreach_set("vector", np.ascontiguousarray(created_uvs, np.float32).reshape(-1))
+    return layer.name
+
+
+def record_fields(mesh, res, uv_name):
+    """The bake record's texel fields: resolution, UV map and its fingerprint, the image's name."""
+    return {
+        "resolution": res,
+        "uv_map": uv_name,
+        "uv_fingerprint": uv_fingerprint(mesh, uv_name),
+        "image": image_name(mesh),
+    }
+
+
+def stage_image(name, image):
+    """A new packed float image holding (res, res, C) coefficients, under a temporary name (the
+    caller renames it to `name` once every mesh of the bake is written)."""
+    tiles = to_tiles(image)
+    height, width = tiles.shape[:2]
+    staged = bpy.data.images.new(f"{name} (baking)", width, height, alpha=True, float_buffer=True, is_data=True)
+    try:
+        staged.pixels.foreach_set(tiles.reshape(-1))
+        staged.pack()
+        staged.use_fake_user = True
+    except BaseException:
+        bpy.data.images.remove(staged)
+        raise
+    return staged
+
+
+def commit_image(staged, name):
+    """Give the staged image its final name, replacing the previous image of that name."""
+    old = bpy.data.images.get(name)
+    if old is not None and old != staged:
+        bpy.data.images.remove(old)
+    staged.name = name
+    return staged.name
+
+
+def discard_image(staged):
+    if staged is not None and staged.name in bpy.data.images:
+        bpy.data.images.remove(staged)
+
+
+def remove_image(name):
+    image = bpy.data.images.get(name) if name else None
+    if image is not None:
+        bpy.data.images.remove(image)
+
+
+def find_image(name, res, groups):
+    """The transfer image `name` when it exists with the size of `groups` tiles of res, else None."""
+    image = bpy.data.images.get(name) if name else None
+    if image is None:
+        return None
+    tiles_x, tiles_y = tile_grid(groups)
+    if tuple(image.size) != (tiles_x * res, tiles_y * res):
+        return None
+    return image
+
+
+def read_pixels(image):
+    """(H, W, 4) float32 pixels of an image."""
+    width, height = image.size
+    buf = np.empty(width * height * 4, dtype=np.float32)
+    image.pixels.foreach_get(buf)
+    return buf.reshape(height, width, 4)
+
+
+def read_coefficients(image, res, groups):
+    """(res, res, 4 G) float32 coefficients of a transfer image."""
+    return from_tiles(read_pixels(image), res, groups)
+
+
+def read_texel_transfer(bake, padded=False):
+    """(res, res, n*n) float32 coefficients of a texel bake (4 * count with padded)."""
+    values = read_coefficients(bake.image, bake.resolution, bake.count)
+    return values if padded else np.ascontiguousarray(values[..., : bake.order * bake.order])
+
+
+def stale_uv_map(mesh, bake):
+    """Why a texel bake's UV map no longer matches (removed, or its UVs changed), or ""."""
+    if bake.uv_map not in uv_map_names(mesh):
+        return f"its UV map '{bake.uv_map}' was removed or renamed"
+    stored = bake.record.get("uv_fingerprint")
+    if stored is not None and uv_fingerprint(mesh, bake.uv_map) != str(stored):
+        return f"its UV map '{bake.uv_map}' changed since the bake"
+    return ""
