@@ -72,7 +72,7 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
         entry = get_mesh_entry(obj.data, info, albedo_mode, albedo_attr, obj, depsgraph)
         if not entry.batches:
             continue
-        shader = get_shader(info.count, layout, info.channels)
+        shader = get_shader(info.count, layout, info.channels, info.domain)
         state = _object_cache.setdefault(obj.as_pointer(), ObjectState())
         mw = np.array(obj.matrix_world, dtype=np.float64)
         size_key = (info.count, info.channels)
@@ -94,7 +94,10 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
         colour.bind(shader, display_lut)
         if suns:
             _bind_suns(shader, state, suns, maps, mw)
-        if entry.texture is not None:
+        if entry.texel_grid is not None:
+            shader.uniform_int("texel_grid", entry.texel_grid)
+            shader.uniform_sampler("transfer_tx", entry.texture)
+        elif entry.texture is not None:
             shader.uniform_int("per_row", entry.per_row)
             shader.uniform_sampler("transfer_tx", entry.texture)
         tints = _slot_tints(obj, albedo_mode)

@@ -8,7 +8,7 @@ import gpu
 import numpy as np
 
 from .. import caches
-from ..scene import mesh_read, storage
+from ..scene import mesh_read, storage, texel_storage
 from ..scene.materials import element_albedo, element_count
 from .shader import shader_mode, transfer_vec4s
 
@@ -16,11 +16,12 @@ from .shader import shader_mode, transfer_vec4s
 class MeshEntry:
     """GPU data of one baked mesh: vertex buffer, one batch per material slot, transfer texture."""
 
-    def __init__(self, key, batches, texture, per_row, evaluated):
+    def __init__(self, key, batches, texture, per_row, evaluated, texel_grid=None):
         self.key = key
         self.batches = batches  # list of (material_index, GPUBatch)
         self.texture = texture
         self.per_row = per_row
+        self.texel_grid = texel_grid  # (texels per side, tiles per row) of a texel bake, else None
         self.evaluated = evaluated  # the evaluated positions it was built for (deformed objects)
 
 
@@ -107,25 +108,26 @@ def build_mesh_entry(
     key: its _cache_key; positions: (vertices, 3) local positions to draw instead of the mesh's
     (deformed_mesh), with normals their (elements, 3) normals; evaluated: the evaluated positions
     the entry stands for (get_mesh_entry)."""
-    n = element_count(mesh, info.domain)
+    domain = "CORNER" if info.domain == "TEXEL" else info.domain  # (a texel bake draws its UVs per corner)
+    n = element_count(mesh, domain)
     if positions is None:
         positions = mesh_read.read_positions(mesh)
     if normals is None:
-        normals = element_normals(mesh, info.domain)
+        normals = element_normals(mesh, domain)
     mesh.calc_loop_triangles()
     ntri = len(mesh.loop_triangles)
     tris = np.empty(ntri * 3, dtype=np.int32)
-    mesh.loop_triangles.foreach_get("loops" if info.domain == "CORNER" else "vertices", tris)
+    mesh.loop_triangles.foreach_get("loops" if domain == "CORNER" else "vertices", tris)
     tris = tris.reshape(-1, 3)
     mat_index = np.empty(ntri, dtype=np.int32)
     mesh.loop_triangles.foreach_get("material_index", mat_index)
-    if info.domain == "CORNER":
+    if domain == "CORNER":
         positions = np.ascontiguousarray(positions[mesh_read.read_corner_verts(mesh)])
-    transfer = read_transfer(mesh, info)
-    albedo = element_albedo(mesh, info.domain, albedo_mode, albedo_attr)
+    albedo = element_albedo(mesh, domain, albedo_mode, albedo_attr)
 
     vec4s = transfer_vec4s(info.count, info.channels)
-    mode = shader_mode(vec4s)
+    mode = shader_mode(vec4s, info.domain)
+    transfer = None if mode == "TEXEL" else read_transfer(mesh, info)
     fmt = gpu.types.GPUVertFormat()
     fmt.attr_add(id="prt_pos", comp_type="F32", len=3, fetch_mode="FLOAT")
     fmt.attr_add(id="prt_albedo", comp_type="F32", len=4, fetch_mode="FLOAT")
@@ -133,14 +135,19 @@ def build_mesh_entry(
     if mode == "ATTR":
         for k in range(vec4s):
             fmt.attr_add(id=f"prt_t{k}", comp_type="F32", len=4, fetch_mode="FLOAT")
+    elif mode == "TEXEL":
+        fmt.attr_add(id="prt_uv", comp_type="F32", len=2, fetch_mode="FLOAT")
     vbo = gpu.types.GPUVertBuf(fmt, n)
     vbo.attr_fill("prt_pos", positions)
     vbo.attr_fill("prt_albedo", albedo)
     vbo.attr_fill("prt_nrm", np.ascontiguousarray(normals, dtype=np.float32))
-    texture, per_row = None, 0
+    texture, per_row, grid = None, 0, None
     if mode == "ATTR":
         for k in range(vec4s):
             vbo.attr_fill(f"prt_t{k}", np.ascontiguousarray(transfer[:, 4 * k : 4 * k + 4]))
+    elif mode == "TEXEL":
+        vbo.attr_fill("prt_uv", np.ascontiguousarray(mesh_read.read_corner_uvs(mesh, info.uv_map)))
+        texture, grid = _texel_texture(info)
     else:
         texture, per_row = _transfer_texture(transfer, vec4s)
 
@@ -154,7 +161,16 @@ def build_mesh_entry(
             seq = np.ascontiguousarray(tris[order_idx[s:e]])
             ibo = gpu.types.GPUIndexBuf(type="TRIS", seq=seq)
             batches.append((int(sorted_mat[s]), gpu.types.GPUBatch(type="TRIS", buf=vbo, elem=ibo)))
-    return MeshEntry(key, batches, texture, per_row, evaluated)
+    return MeshEntry(key, batches, texture, per_row, evaluated, grid)
+
+
+def _texel_texture(info):
+    """The transfer image of a texel bake as an RGBA32F texture of its tiles, and its grid."""
+    pixels = texel_storage.read_pixels(info.image)
+    height, width = pixels.shape[:2]
+    buf = gpu.types.Buffer("FLOAT", pixels.size, np.ascontiguousarray(pixels).reshape(-1))
+    tex = gpu.types.GPUTexture((width, height), format="RGBA32F", data=buf)
+    return tex, (info.resolution, texel_storage.tile_grid(info.count)[0])
 
 
 def _transfer_texture(transfer, count):

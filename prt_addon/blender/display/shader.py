@@ -1,4 +1,4 @@
-"""The PRT shader: per-vertex radiance sum_i L_i t_i from vertex attributes or a texture.
+"""The PRT shader: radiance sum_i L_i t_i per vertex (attributes or a texture) or per pixel (texel bakes).
 
 The transfer t comes as vertex attributes while they fit in the 16 vertex-attribute limit
 (orders <= 7), otherwise from an RGBA32F texture read with texelFetch at gl_VertexID; the light
@@ -58,8 +58,47 @@ def _dot_line(tex, k, count):
     )
 
 
-def shader_mode(count):
+def shader_mode(count, domain="POINT"):
+    if domain == "TEXEL":
+        return "TEXEL"
     return "ATTR" if count <= MAX_ATTRIBUTE_TRANSFER else "TEXTURE"
+
+
+# A texel bake: the transfer image's tiles (scene.texel_storage) read per pixel with the bilinear
+# weights of a GPU's clamp-to-edge filter (texel centres at (i + 0.5) / res), as core's
+# lightmap.bilinear does, then dotted with the light; the vertex stage passes the albedo alone.
+_TEXEL_FUNCTION = """
+vec4 texel_tap(ivec2 tile, ivec2 a, ivec2 b, vec2 f)
+{
+  vec4 low = mix(texelFetch(transfer_tx, tile + a, 0), texelFetch(transfer_tx, tile + ivec2(b.x, a.y), 0), f.x);
+  vec4 high = mix(texelFetch(transfer_tx, tile + ivec2(a.x, b.y), 0), texelFetch(transfer_tx, tile + b, 0), f.x);
+  return mix(low, high, f.y);
+}
+
+vec3 texel_transfer()
+{
+  int res = texel_grid.x;
+  vec2 p = clamp(texel_uv * float(res) - 0.5, vec2(0.0), vec2(float(res - 1)));
+  ivec2 a = ivec2(floor(p));
+  ivec2 b = min(a + 1, ivec2(res - 1));
+  vec2 f = p - vec2(a);
+  vec3 r = vec3(0.0);
+  for (int k = 0; k < %(count)d; k++) {
+    vec4 t = texel_tap(ivec2(k %% texel_grid.y, k / texel_grid.y) * res, a, b, f);
+    r += vec3(dot(t, light.c[k]), dot(t, light.c[%(count)d + k]), dot(t, light.c[%(twice)d + k]));
+  }
+  return max(r, vec3(0.0));
+}
+"""
+
+
+def _texel_fragment(fragment, count):
+    """`fragment` with the radiance multiplied per pixel by the texel bake's transfer."""
+    main = "void main()\n{\n"
+    assert main in fragment and "display_transform(radiance" in fragment
+    fragment = fragment.replace(main, main + "  vec3 prt_texel = texel_transfer();\n", 1)
+    fragment = fragment.replace("display_transform(radiance", "display_transform(radiance * prt_texel", 1)
+    return _TEXEL_FUNCTION % {"count": count, "twice": 2 * count} + fragment
 
 
 def _bounce_lines(fetch, k, count, channels):
@@ -77,12 +116,12 @@ def transfer_vec4s(count, bounce_channels=0):
     return count * (1 + bounce_channels)
 
 
-def get_shader(count, lights=None, bounce_channels=0):
+def get_shader(count, lights=None, bounce_channels=0, domain="POINT"):
     """Compiled shader for `count` transfer vec4s per part, with the suns' shadow views when `lights`
     is a (compact views, wide views) pair (shader_suns.view_layout; None or (0, 0): no suns) and a bounced transfer
     of `bounce_channels` channels (0: none) (cached). Raises RuntimeError on failure."""
     total = transfer_vec4s(count, bounce_channels)
-    mode = shader_mode(total)
+    mode = shader_mode(total, domain)
     lights = tuple(lights) if lights and any(lights) else None
     key = (mode, count, lights, bounce_channels)
     shader = _shaders.get(key)
@@ -101,7 +140,15 @@ def get_shader(count, lights=None, bounce_channels=0):
     info.push_constant("FLOAT", "depth_bias")
     info.vertex_in(0, "VEC3", "prt_pos")
     info.vertex_in(1, "VEC4", "prt_albedo")
-    if mode == "ATTR":
+    if mode == "TEXEL":
+        info.vertex_in(2, "VEC2", "prt_uv")
+        info.push_constant("IVEC2", "texel_grid")  # (texels per side, tiles per row)
+        info.sampler(0, "FLOAT_2D", "transfer_tx")
+        texel_iface = gpu.types.GPUStageInterfaceInfo("prt_texel_iface")
+        texel_iface.smooth("VEC2", "texel_uv")
+        info.vertex_out(texel_iface)
+        body = "  r = vec3(1.0);\n  texel_uv = prt_uv;"
+    elif mode == "ATTR":
         for k in range(total):
             info.vertex_in(2 + k, "VEC4", f"prt_t{k}")
         lines = [_dot_line(f"prt_t{k}", k, count) for k in range(count)]
@@ -130,12 +177,15 @@ def get_shader(count, lights=None, bounce_channels=0):
             "  }"
         )
     if lights:
-        vertex, fragment = add_suns(info, lights, _VERTEX_COMMON % body, 2 + total if mode == "ATTR" else 2)
+        first = {"ATTR": 2 + total, "TEXEL": 3}.get(mode, 2)
+        vertex, fragment = add_suns(info, lights, _VERTEX_COMMON % body, first)
     else:
         iface = gpu.types.GPUStageInterfaceInfo("prt_iface")
         iface.smooth("VEC3", "radiance")
         info.vertex_out(iface)
         vertex, fragment = _VERTEX_COMMON % body, _FRAGMENT
+    if mode == "TEXEL":
+        fragment = _texel_fragment(fragment, count)
     colour.declare(info)
     info.fragment_out(0, "VEC4", "FragColor")
     info.vertex_source(vertex)
