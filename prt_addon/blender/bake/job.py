@@ -24,7 +24,7 @@ from ..scene.parts import scene_parts
 from .bounces import BounceSystem
 from .plans import check_object
 from .settings import BakeError, BakeReport, BakeSettings, blender_threads, fallback_note, resolve_backend
-from .texels import texel_geometry, texel_image
+from .texels import prepare_texels, texel_image
 
 # Progress weight of one bounce pass per node, against one traced point (measured ~0.1 to 0.3).
 PASS_WORK = 0.2
@@ -138,16 +138,10 @@ class BakeJob:
 
     def _texel_plan(self, plan, mesh_eval, positions):
         s = self.settings
-        try:
-            plan.texels = texel_geometry(plan, mesh_eval, positions, s.uv_map, s.resolution, s.texel_density)
-        except BakeError as error:
-            raise BakeError(f"'{plan.name}' {error}") from None
-        res = plan.texels.resolution
+        shadowed_by_scene = plan.occluder is not None and plan.occluder is self._occluder
+        others = [(o, v, t) for o, v, t in self._parts if o is None or o != plan.obj] if shadowed_by_scene else []
+        plan.texels = prepare_texels(plan, mesh_eval, positions, s, others, BUILDERS[self.backend])
         self.report.texel_notes += [f"'{plan.name}': {note}" for note in plan.texels.notes]
-        self.report.texel_notes.append(
-            f"'{plan.name}': {res} x {res} texels of UV map '{plan.texels.uv_name}', "
-            f"{len(plan.texels.samples.texels):,} covered"
-        )
 
     def _computation(self, plan):
         if plan.texels is not None:

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from ...core.transfer import lightmap, texels
+from ...core.transfer import contact, lightmap, texels
+from ...core.transfer.mesh import concatenate_parts
 from ..scene import mesh_read
 from .settings import MAX_RESOLUTION, BakeError
 
@@ -169,3 +170,31 @@ def texel_image(samples, coeffs, seams, passes=GUTTER):
     image = lightmap.dilate(image, covered, passes)
     image = lightmap.fix_seams(image, seams, covered)
     return np.asarray(image, dtype=np.float32)
+
+
+def prepare_texels(plan, mesh_eval, positions, settings, others, build_occluder):
+    """The TexelGeometry of a plan, its samples under other surfaces (`others`: the scene's
+    parts but the plan's own, [] when the scene does not shadow it) given zero normals (t = 0:
+    they see that surface, as in Cycles), and its notes with the resolution."""
+    s = settings
+    try:
+        geometry = texel_geometry(plan, mesh_eval, positions, s.uv_map, s.resolution, s.texel_density)
+    except BakeError as error:
+        raise BakeError(f"'{plan.name}' {error}") from None
+    samples = geometry.samples
+    vertices, triangles = concatenate_parts(others) if others else (None, np.zeros((0, 3)))
+    if len(triangles):
+        occluder = build_occluder(vertices, triangles)
+        under = np.stack(
+            [
+                contact.under_other_surfaces(p, n, plan.offset, occluder, vertices, triangles)
+                for p, n in zip(samples.positions, samples.normals)
+            ]
+        )
+        if under.any():
+            samples.normals[under] = 0.0
+            count = int(under.any(axis=0).sum())
+            geometry.notes.append(f"{count:,} texels lie under another surface and are baked as shadowed")
+    res = geometry.resolution
+    geometry.notes.append(f"{res} x {res} texels of UV map '{geometry.uv_name}', {len(samples.texels):,} covered")
+    return geometry

@@ -8,6 +8,8 @@ tangent, into its own faces, the origin lies on the side where its own surface i
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import numpy.typing as npt
 
@@ -142,4 +144,36 @@ def inward_tangents(
     out -= np.einsum("ij,ij->i", out, n)[:, None] * n
     length = np.sqrt(np.einsum("ij,ij->i", out, out))
     out /= np.maximum(length, FAN_ONE_SIDED)[:, None]
+    return out
+
+
+def under_other_surfaces(
+    positions: npt.ArrayLike,
+    normals: npt.ArrayLike,
+    offset: float,
+    occluder: Any,
+    vertices: npt.ArrayLike,
+    triangles: npt.ArrayLike,
+) -> np.ndarray:
+    """(P,) bool: whether another surface lies on the point within `offset` of its own plane, facing
+    it (a box's bottom face on the floor): from the ray origin x + offset n, back along -n, the
+    nearest of the other surfaces' triangles (`occluder` of `vertices`, `triangles`) is hit within
+    2 offset. Rays offset along n would start under that surface and see through it; Cycles,
+    which skips only a ray's own triangle, sees the surface there."""
+    x = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    out = np.zeros(len(x), dtype=bool)
+    if occluder is None or len(x) == 0:
+        return out
+    origins = x + offset * n
+    prims = np.asarray(occluder.nearest_triangles(origins.astype(np.float32), (-n).astype(np.float32)))
+    hit = np.flatnonzero(prims >= 0)
+    if len(hit) == 0:
+        return out
+    corners = np.asarray(vertices, dtype=np.float64)[np.asarray(triangles)[prims[hit]]]
+    plane = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    along = -np.einsum("ij,ij->i", n[hit], plane)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        distance = np.einsum("ij,ij->i", corners[:, 0] - origins[hit], plane) / along
+    out[hit] = np.isfinite(distance) & (distance <= 2.0 * offset)
     return out
