@@ -158,7 +158,7 @@ def under_other_surfaces(
     """(P,) bool: whether another surface lies on the point within `offset` of its own plane, facing
     it (a box's bottom face on the floor): from the ray origin x + offset n, back along -n, the
     nearest of the other surfaces' triangles (`occluder` of `vertices`, `triangles`) is hit within
-    2 offset. Rays offset along n would start under that surface and see through it; Cycles,
+    2 offset, on a triangle facing the point. Rays offset along n would start under that surface and see through it; Cycles,
     which skips only a ray's own triangle, sees the surface there."""
     x = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
@@ -175,5 +175,6 @@ def under_other_surfaces(
     along = -np.einsum("ij,ij->i", n[hit], plane)
     with np.errstate(divide="ignore", invalid="ignore"):
         distance = np.einsum("ij,ij->i", corners[:, 0] - origins[hit], plane) / along
-    out[hit] = np.isfinite(distance) & (distance <= 2.0 * offset)
+    facing = np.einsum("ij,ij->i", n[hit], plane) < 0.0  # (a coplanar surface facing the same way is no cover)
+    out[hit] = facing & np.isfinite(distance) & (distance <= 2.0 * offset)
     return out

@@ -36,9 +36,10 @@ def direction_subsets(directions: DirectionSet, count: int) -> list[DirectionSet
 
 class SplitComputation:
     """The transfer of P elements with S sample positions each: S TransferComputations, the s-th
-    over every element's s-th sample and the s-th direction subset, run one after the other;
-    coeffs and error are their combination (module docstring). The same interface as
-    TransferComputation (step, start, close, cancel, done, total, fraction, stats, result)."""
+    over every element's s-th sample and the s-th direction subset, made and run one after the
+    other (one part's buffers at a time) and summed as they finish; coeffs and error are their
+    combination (module docstring). The same interface as TransferComputation (step, start,
+    close, cancel, done, total, fraction, stats, result)."""
 
     def __init__(
         self,
@@ -54,27 +55,48 @@ class SplitComputation:
             raise ValueError(f"positions and normals must be (S, P, 3) arrays, got {positions.shape}, {normals.shape}")
         if options.get("hit_sink") is not None:
             raise ValueError("a split computation keeps no hits (bounces are baked at points)")
-        offset = np.asarray(options.pop("offset", 0.0), dtype=np.float64)
-        self_occludes = np.asarray(options.pop("self_occludes", True))
-        subsets = direction_subsets(directions, len(positions))
+        self._offset = np.asarray(options.pop("offset", 0.0), dtype=np.float64)
+        self._self_occludes = np.asarray(options.pop("self_occludes", True))
+        self._subsets = direction_subsets(directions, len(positions))
+        self._positions, self._normals, self._options = positions, normals, options
         self.order = order
-        self.parts = [
-            TransferComputation(
-                positions[s],
-                normals[s],
-                subset,
-                order,
-                offset=offset[s] if offset.ndim == 2 else offset,
-                self_occludes=self_occludes[s] if self_occludes.ndim == 2 else self_occludes,
-                **options,
-            )
-            for s, subset in enumerate(subsets)
-        ]
-        self.samples = len(self.parts)
+        self.samples = len(self._subsets)
         self._count = positions.shape[1]
-        self._current = 0
+        self._sum = np.zeros((self._count, order * order))
+        self._square_error = np.zeros(self._count)
+        self._stats = TransferStats()
+        self._part: TransferComputation | None = None
+        self._current = 0  # the part running (== samples when all are done)
         self._cancel = False
         self.hits: list = []
+
+    def _make_part(self, s: int) -> TransferComputation:
+        def pick(value: np.ndarray) -> Any:
+            return value[s] if value.ndim == 2 else value
+
+        return TransferComputation(
+            self._positions[s],
+            self._normals[s],
+            self._subsets[s],
+            self.order,
+            offset=pick(self._offset),
+            self_occludes=pick(self._self_occludes),
+            **self._options,
+        )
+
+    def _current_part(self) -> TransferComputation | None:
+        if self._part is None and self._current < self.samples:
+            self._part = self._make_part(self._current)
+        return self._part
+
+    def _collect(self, part: TransferComputation) -> None:
+        """Add a finished part's transfer, error and counts, and drop its buffers."""
+        part.close()
+        self._sum += part.coeffs
+        self._square_error += np.asarray(part.error, np.float64) ** 2
+        self._stats.add(part.stats)
+        self._part = None
+        self._current += 1
 
     @property
     def total(self) -> int:
@@ -83,71 +105,69 @@ class SplitComputation:
     @property
     def done(self) -> int:
         """Elements done, counting each sample as 1/S of its element."""
-        return sum(p.done for p in self.parts) // self.samples
+        running = self._part.done if self._part is not None else 0
+        return (self._current * self._count + running) // self.samples
 
     @property
     def fraction(self) -> float:
-        work = sum(p.total for p in self.parts)
-        return sum(p.done for p in self.parts) / work if work else 1.0
+        return self.done / self._count if self._count else 1.0
 
     @property
     def stats(self) -> TransferStats:
-        total = TransferStats()
-        for part in self.parts:
-            total.add(part.stats)
+        total = TransferStats().add(self._stats)
+        if self._part is not None:
+            total.add(self._part.stats)
         total.points = self._count
-        total.seconds = sum(p.stats.seconds for p in self.parts)
+        total.candidate_rays = self._count * sum(d.count for d in self._subsets)
         return total
 
     @property
     def coeffs(self) -> np.ndarray:
-        out = np.zeros((self._count, self.order * self.order))
-        for part in self.parts:
-            out += part.coeffs
-        return (out / self.samples).astype(np.float32)
+        return (self._sum / self.samples).astype(np.float32)
 
     @property
     def error(self) -> np.ndarray:
-        square = np.zeros(self._count)
-        for part in self.parts:
-            square += np.asarray(part.error, np.float64) ** 2
-        return (np.sqrt(square) / self.samples).astype(np.float32)
+        return (np.sqrt(self._square_error) / self.samples).astype(np.float32)
 
     def cancel(self) -> None:
         self._cancel = True
-        for part in self.parts:
-            part.cancel()
+        if self._part is not None:
+            self._part.cancel()
 
     def start(self) -> None:
-        if self._current < self.samples:
-            self.parts[self._current].start()
+        part = self._current_part()
+        if part is not None:
+            part.start()
 
     def step(self) -> bool:
         """Process one chunk of the current sample's computation; False when all are done."""
         if self._cancel:
             raise Cancelled()
-        while self._current < self.samples:
-            part = self.parts[self._current]
-            if part.step():
-                return True
-            part.close()
-            self._current += 1
-            if self._current < self.samples:
-                self.parts[self._current].start()
-                return True
-        return False
+        part = self._current_part()
+        if part is None:
+            return False
+        if part.step():
+            return True
+        self._collect(part)
+        nxt = self._current_part()
+        if nxt is None:
+            return False
+        nxt.start()
+        return True
 
     def close(self) -> None:
-        for part in self.parts:
-            part.close()
+        if self._part is not None:
+            self._part.close()
 
     def result(self) -> TransferResult:
         return TransferResult(self.coeffs, self.error, self.stats)
 
     def iter_rays(self) -> Iterator[tuple[np.ndarray, np.ndarray]]:
         """Every (origins, directions) batch traced, in the same order (benchmarks)."""
-        for part in self.parts:
+        for s in range(self.samples):
+            part = self._make_part(s)
             yield from part.iter_rays()
+            part.close()
 
     def run(self, progress: Callable[[float], object] | None = None) -> TransferResult:
         try:
