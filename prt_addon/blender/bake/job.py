@@ -24,7 +24,7 @@ from ..scene.parts import scene_parts
 from .bounces import BounceSystem
 from .plans import check_object
 from .settings import BakeError, BakeReport, BakeSettings, blender_threads, fallback_note, resolve_backend
-from .texels import prepare_texels, texel_image
+from .texels import bakes_texels, prepare_texels, texel_image, within_memory
 
 # Progress weight of one bounce pass per node, against one traced point (measured ~0.1 to 0.3).
 PASS_WORK = 0.2
@@ -56,6 +56,7 @@ class BakeJob:
         self._sink = bounce_hits.LateSink() if self.settings.bounces else None  # its computations' hit sink
         self._sources = [] if self.settings.bounces else None
         self._reads = {}  # evaluated mesh pointer -> (positions, triangles), read once
+        self._texel_bytes = 0  # the texel bakes' estimated peak memory so far
         self._pool = ThreadPoolExecutor(max(1, self.settings.threads), thread_name_prefix="prt-bake")
         try:
             self._read_scene(depsgraph)
@@ -82,7 +83,7 @@ class BakeJob:
             # those are kept as they came until the slice is collected (core.transfer.bounce_hits.LateSink).
             for index, plan in enumerate(self.plans):
                 mesh_eval, positions = plan.source
-                if self.settings.target == "TEXELS":
+                if bakes_texels(plan, self.settings):
                     self._texel_plan(plan, mesh_eval, positions)
                 else:
                     plan.points = mesh_read.bake_points(mesh_eval, plan.matrix, positions)
@@ -141,6 +142,7 @@ class BakeJob:
         shadowed_by_scene = plan.occluder is not None and plan.occluder is self._occluder
         others = [(o, v, t) for o, v, t in self._parts if o is None or o != plan.obj] if shadowed_by_scene else []
         plan.texels = prepare_texels(plan, mesh_eval, positions, s, others, BUILDERS[self.backend])
+        self._texel_bytes = within_memory(self._texel_bytes, plan.texels.resolution, s.order)
         self.report.texel_notes += [f"'{plan.name}': {note}" for note in plan.texels.notes]
 
     def _computation(self, plan):

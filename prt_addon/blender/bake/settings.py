@@ -1,5 +1,6 @@
 """What a bake is asked to do and what it reports: settings, their checks, the report, backends."""
 
+import os
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -10,7 +11,7 @@ from ...core.transfer import quadrature as transfer
 from ..scene.occluders import auto_backend
 
 BACKENDS = ("AUTO", "EMBREE", "BVHTREE")
-TARGETS = ("VERTICES", "TEXELS")
+TARGETS = ("VERTICES", "TEXELS", "AUTO")
 MAX_RESOLUTION = 4096
 
 
@@ -87,9 +88,9 @@ class BakeSettings:
         self.target = str(self.target).upper()
         if self.target not in TARGETS:
             raise BakeError(f"target must be one of {TARGETS}, got {self.target!r}")
-        if self.target != "TEXELS":
+        if self.target == "VERTICES":
             return
-        if self.bounces:
+        if self.bounces and self.target == "TEXELS":
             raise BakeError("bounces are baked per vertex for now: bake texels with Bounces 0, or bake vertices")
         res = self.resolution
         if res is not None and (isinstance(res, bool) or not isinstance(res, (int, np.integer)) or res < 1):
@@ -234,3 +235,23 @@ def blender_threads(scene):
     """The thread count of Blender's own setting (Render Properties > Performance > Threads):
     RenderSettings.threads reads as every logical core in Auto mode, else the Fixed number."""
     return max(1, int(scene.render.threads))
+
+
+SAMPLES_PER_TEXEL = 4  # core.transfer.texels.SAMPLE_OFFSETS
+
+
+def texel_memory(resolution, order, samples_per_texel=SAMPLES_PER_TEXEL):
+    """Bytes a texel bake of one object at resolution x resolution texels takes at its peak (an
+    upper bound: every texel covered): the samples (positions, normals, barycentrics, triangles:
+    80 bytes each), one part's buffers and the running sum (about 40 bytes per coefficient and
+    per texel), the image with its filled gutter and the packed tiles (20 bytes per coefficient)."""
+    texels = int(resolution) ** 2
+    return texels * (80 * samples_per_texel + 60 * order * order)
+
+
+def memory_budget():
+    """Bytes a bake may take: half the machine's physical memory (8 GiB where unknown)."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
+    except (ValueError, OSError, AttributeError):
+        return 8 << 30

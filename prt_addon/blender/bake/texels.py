@@ -13,7 +13,7 @@ import numpy as np
 from ...core.transfer import contact, lightmap, texels
 from ...core.transfer.mesh import concatenate_parts
 from ..scene import mesh_read
-from .settings import MAX_RESOLUTION, BakeError
+from .settings import MAX_RESOLUTION, BakeError, memory_budget, texel_memory
 
 LIGHTMAP_UV_NAME = "PRT Lightmap"  # the UV map a texel bake makes when the mesh has no lightmap UV map
 DEFAULT_DENSITY = 20.0  # texels per metre of surface, when no resolution is given
@@ -198,3 +198,27 @@ def prepare_texels(plan, mesh_eval, positions, settings, others, build_occluder)
     res = geometry.resolution
     geometry.notes.append(f"{res} x {res} texels of UV map '{geometry.uv_name}', {len(samples.texels):,} covered")
     return geometry
+
+
+def bakes_texels(plan, settings):
+    """Whether the plan bakes texels: target TEXELS; with AUTO, a mesh too coarse for its size,
+    with fewer vertices than one per 4 x 4 texels at the texel density (a single-quad wall, a
+    low-poly prop), and no bounces (bounces are baked per vertex)."""
+    if settings.target != "AUTO":
+        return settings.target == "TEXELS"
+    if settings.bounces:
+        return False
+    corners = plan.own_vertices[plan.own_triangles].astype(np.float64)
+    area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1).sum()
+    return len(plan.mesh.vertices) < area * settings.texel_density**2 / 16.0
+
+
+def within_memory(so_far, resolution, order):
+    """so_far plus one more lightmap's texel_memory; raises BakeError past memory_budget()."""
+    total = so_far + texel_memory(resolution, order)
+    if total > memory_budget():
+        raise BakeError(
+            f"the lightmaps would take about {total / 2**30:.1f} GiB, more than a bake may use here "
+            f"({memory_budget() / 2**30:.1f} GiB, half the memory): lower the resolution or the texel density"
+        )
+    return total

@@ -22,6 +22,10 @@ def settings_from(group):
         group.backend,
         # (greyed out in the panel without scene shadows: not used then, as Blender does)
         bounces=group.bounces if group.shadows and not group.self_shadow_only else 0,
+        target=group.target,
+        uv_map=group.uv_map or None,
+        resolution=group.resolution or None,
+        texel_density=group.texel_density,
     )
 
 

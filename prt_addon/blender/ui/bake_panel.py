@@ -6,7 +6,7 @@ from ...core.trace import raytrace
 from ..bake.job import status
 from ..bake.presets import PRESETS, preset_of
 from ..bake.reports import last_report
-from ..bake.settings import FALLBACK_SLOWDOWN, BakeReport
+from ..bake.settings import FALLBACK_SLOWDOWN, BakeReport, texel_memory
 from .sidebar import PRTSubPanel, short_count, wrapped_label
 
 
@@ -26,6 +26,23 @@ def result_line(report):
     noise_text = f"about {noise:.0f} % noise" if noise >= 1.0 else f"under 1 % noise ({noise:.2f})"
     bounces = f" - {report.bounces} bounces" if report.bounces else ""
     return f"{report.seconds:.2f} s - {short_count(report.rays_traced)} rays{bounces} - {noise_text}"
+
+
+def texel_settings(layout, context, settings):
+    """The lightmap's UV map and size, and the memory a texel bake of the selection takes."""
+    col = layout.column(align=True)
+    obj = context.active_object
+    if obj is not None and obj.type == "MESH":
+        col.prop_search(settings, "uv_map", obj.data, "uv_layers", text="UV Map")
+    else:
+        col.prop(settings, "uv_map")
+    col.prop(settings, "resolution")
+    if not settings.resolution:
+        col.prop(settings, "texel_density")
+    meshes = sum(1 for o in context.selected_objects if o.type == "MESH")
+    if settings.resolution and meshes:
+        need = meshes * texel_memory(settings.resolution, settings.order)
+        wrapped_label(layout, context, f"Memory: about {need / 2**20:,.0f} MB for {meshes} mesh(es)", icon="INFO")
 
 
 class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
@@ -52,6 +69,9 @@ class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
         bounce_row = layout.column(align=True)
         bounce_row.enabled = settings.shadows and not settings.self_shadow_only
         bounce_row.prop(settings, "bounces")
+        layout.prop(settings, "target")
+        if settings.target != "VERTICES":
+            texel_settings(layout, context, settings)
         if not raytrace.EMBREE_AVAILABLE:
             if settings.backend == "EMBREE":
                 wrapped_label(layout, context, "Embree is not available here: choose Auto or BVH Tree", icon="ERROR")

@@ -8,7 +8,7 @@ scene.prt_display.
 import bpy
 
 from ...core.lights.extraction import MAX_LIGHTS
-from ..bake.settings import MAX_BOUNCES, MAX_ORDER, MIN_SAMPLES
+from ..bake.settings import MAX_BOUNCES, MAX_ORDER, MAX_RESOLUTION, MIN_SAMPLES
 from ..world.projection import MAX_ORDER as MAX_WORLD_ORDER
 
 
@@ -147,6 +147,42 @@ class PRT_PG_bake_settings(bpy.types.PropertyGroup):
         default=0,
         min=0,
         max=MAX_BOUNCES,
+    )
+    target: bpy.props.EnumProperty(
+        name="Target",
+        description="Where the transfer is baked and stored",
+        items=[
+            ("VERTICES", "Vertices", "Per vertex, in colour attributes: for dense meshes"),
+            ("TEXELS", "Texels", "Per texel of a lightmap UV map, in a float image: for low-poly meshes"),
+            (
+                "AUTO",
+                "Auto",
+                "Texels for meshes too coarse for their size (fewer vertices than a texel per 4 x 4), else vertices",
+            ),
+        ],
+        default="VERTICES",
+    )
+    uv_map: bpy.props.StringProperty(
+        name="UV Map",
+        description=(
+            "The UV map texel bakes use; empty: a UV map whose name contains 'Lightmap', else a new one "
+            "('PRT Lightmap', by Smart UV Project; the other UV maps are not changed)"
+        ),
+        default="",
+    )
+    resolution: bpy.props.IntProperty(
+        name="Resolution",
+        description="Texels per side of each object's lightmap; 0: from the texel density",
+        default=0,
+        min=0,
+        max=MAX_RESOLUTION,
+    )
+    texel_density: bpy.props.FloatProperty(
+        name="Texels per Metre",
+        description="Lightmap texels per metre of surface when Resolution is 0",
+        default=20.0,
+        min=0.1,
+        soft_max=200.0,
     )
     shadows: bpy.props.BoolProperty(
         name="Shadows",

@@ -158,8 +158,8 @@ def under_other_surfaces(
     """(P,) bool: whether another surface lies on the point within `offset` of its own plane, facing
     it (a box's bottom face on the floor): from the ray origin x + offset n, back along -n, the
     nearest of the other surfaces' triangles (`occluder` of `vertices`, `triangles`) is hit within
-    2 offset, on a triangle facing the point. Rays offset along n would start under that surface and see through it; Cycles,
-    which skips only a ray's own triangle, sees the surface there."""
+    2 offset, on a triangle facing the point. Rays offset along n would start under that surface
+    and see through it; Cycles, which skips only a ray's own triangle, sees the surface there."""
     x = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     out = np.zeros(len(x), dtype=bool)
