@@ -24,7 +24,7 @@ from ..scene.parts import scene_parts
 from .bounces import BounceSystem
 from .plans import check_object
 from .settings import BakeError, BakeReport, BakeSettings, blender_threads, fallback_note, resolve_backend
-from .texels import bakes_texels, prepare_texels, texel_image, within_memory
+from .texels import bakes_texels, prepare_texels, texel_image, unwrap_ahead, within_memory
 
 # Progress weight of one bounce pass per node, against one traced point (measured ~0.1 to 0.3).
 PASS_WORK = 0.2
@@ -59,6 +59,7 @@ class BakeJob:
         self._texel_bytes = 0  # the texel bakes' estimated peak memory so far
         self._pool = ThreadPoolExecutor(max(1, self.settings.threads), thread_name_prefix="prt-bake")
         try:
+            self._unwrapped = unwrap_ahead(objects, self.settings)
             self._read_scene(depsgraph)
             seen_meshes = {}
             for obj in objects:
@@ -141,7 +142,7 @@ class BakeJob:
         s = self.settings
         shadowed_by_scene = plan.occluder is not None and plan.occluder is self._occluder
         others = [(o, v, t) for o, v, t in self._parts if o is None or o != plan.obj] if shadowed_by_scene else []
-        plan.texels = prepare_texels(plan, mesh_eval, positions, s, others, BUILDERS[self.backend])
+        plan.texels = prepare_texels(plan, mesh_eval, positions, s, others, BUILDERS[self.backend], self._unwrapped)
         self._texel_bytes = within_memory(self._texel_bytes, plan.texels.resolution, s.order)
         self.report.texel_notes += [f"'{plan.name}': {note}" for note in plan.texels.notes]
 

@@ -78,6 +78,7 @@ def unwrap(obj, margin):
     for kind in select:
         getattr(mesh, kind).foreach_get("select", select[kind])
         getattr(mesh, kind).foreach_get("hide", hide[kind])
+    attributes_before = set(mesh.attributes.keys())
     temporary = layers.new(name="PRT unwrap")
     if temporary is None:
         raise BakeError("cannot add a UV map for the lightmap (a mesh holds at most 8): remove one, or name one")
@@ -92,7 +93,8 @@ def unwrap(obj, margin):
             view_layer.objects.active = obj
             try:
                 bpy.ops.object.mode_set(mode="EDIT")
-                bpy.ops.mesh.reveal(select=False)
+                if any(h.any() for h in hide.values()):
+                    bpy.ops.mesh.reveal(select=False)
                 bpy.ops.mesh.select_all(action="SELECT")
                 bpy.ops.uv.smart_project(angle_limit=np.radians(66.0), island_margin=margin, area_weight=0.0)
                 bpy.ops.object.mode_set(mode="OBJECT")
@@ -103,8 +105,12 @@ def unwrap(obj, margin):
         if name in layers:
             layers.remove(layers[name])
         for kind in select:
-            getattr(mesh, kind).foreach_set("hide", hide[kind])
+            if hide[kind].any():
+                getattr(mesh, kind).foreach_set("hide", hide[kind])
             getattr(mesh, kind).foreach_set("select", select[kind])
+        for name in set(mesh.attributes.keys()) - attributes_before:  # (edit mode's .hide_*, .uv_select_*)
+            if name.startswith(".") and name in mesh.attributes:
+                mesh.attributes.remove(mesh.attributes[name])
         if 0 <= active < len(layers):
             layers.active_index = active
         if 0 <= render < len(layers):
@@ -113,7 +119,34 @@ def unwrap(obj, margin):
     return uvs
 
 
-def texel_geometry(plan, mesh_eval, positions, uv_map, resolution, density):
+def unwrap_ahead(objects, settings):
+    """{object name: (corners, 2) UVs} of a Smart UV Project for every mesh object that a texel
+    bake will need a lightmap UV map for and has none. Done before the bake reads the scene:
+    the mode switches of the unwrap free the evaluated meshes read before them."""
+    out = {}
+    if settings.target == "VERTICES" or (settings.target == "AUTO" and settings.bounces):
+        return out
+    for obj in objects:
+        if getattr(obj, "type", None) != "MESH" or obj.mode == "EDIT" or len(obj.data.polygons) == 0:
+            continue
+        if obj.library is not None or obj.data.library is not None:
+            continue
+        try:
+            if lightmap_uv_name(obj.data, settings.uv_map) is not None:
+                continue
+        except BakeError:
+            continue  # (refused when its plan is made)
+        mesh = obj.data
+        world = mesh_read.world_triangles(mesh, np.array(obj.matrix_world))[2]
+        area = _areas(world, np.zeros((len(world), 3, 2)))[0]
+        if settings.target == "AUTO" and not len(mesh.vertices) < area * settings.texel_density**2 / 16.0:
+            continue
+        guess = settings.resolution or resolution_for(area, PACKING, settings.texel_density)
+        out[obj.name] = unwrap(obj, margin=min(0.2, 2.0 * GUTTER / guess))
+    return out
+
+
+def texel_geometry(plan, mesh_eval, positions, uv_map, resolution, density, unwrapped=None):
     """The TexelGeometry of a plan (bake.plans): the UV map, the resolution, the texel samples in
     world space with the plan's ray offset as their inset from the triangles' edges."""
     notes = []
@@ -122,9 +155,9 @@ def texel_geometry(plan, mesh_eval, positions, uv_map, resolution, density):
     created = None
     corners, vertices, world, world_normals = mesh_read.world_triangles(mesh_eval, plan.matrix, positions)
     if uv_name is None:
-        area = _areas(world, np.zeros((len(world), 3, 2)))[0]
-        guess = resolution or resolution_for(area, PACKING, density)
-        created = unwrap(plan.obj, margin=min(0.2, 2.0 * GUTTER / guess))
+        created = (unwrapped or {}).get(plan.name)
+        if created is None:
+            raise BakeError("has no lightmap UV map and none was made for it")
         uv_name = LIGHTMAP_UV_NAME
         corner_uvs = created
         notes.append(f"made the UV map '{uv_name}' (Smart UV Project)")
@@ -172,13 +205,13 @@ def texel_image(samples, coeffs, seams, passes=GUTTER):
     return np.asarray(image, dtype=np.float32)
 
 
-def prepare_texels(plan, mesh_eval, positions, settings, others, build_occluder):
+def prepare_texels(plan, mesh_eval, positions, settings, others, build_occluder, unwrapped):
     """The TexelGeometry of a plan, its samples under other surfaces (`others`: the scene's
     parts but the plan's own, [] when the scene does not shadow it) given zero normals (t = 0:
     they see that surface, as in Cycles), and its notes with the resolution."""
     s = settings
     try:
-        geometry = texel_geometry(plan, mesh_eval, positions, s.uv_map, s.resolution, s.texel_density)
+        geometry = texel_geometry(plan, mesh_eval, positions, s.uv_map, s.resolution, s.texel_density, unwrapped)
     except BakeError as error:
         raise BakeError(f"'{plan.name}' {error}") from None
     samples = geometry.samples
