@@ -184,7 +184,7 @@ def texel_geometry(plan, mesh_eval, positions, uv_map, resolution, density, unwr
         notes.append(f"{samples.outside} faces of UV map '{uv_name}' reach outside 0 to 1: those parts are not baked")
     if samples.degenerate:
         notes.append(f"{samples.degenerate} faces of UV map '{uv_name}' have no UV area and are not baked")
-    seams = lightmap.seam_pairs(vertices, uvs)
+    seams = lightmap.seam_pairs(vertices, uvs, normals=world_normals)  # (smooth edges only)
     original = corner_uvs if created is not None else mesh_read.read_corner_uvs(mesh, uv_name)
     fingerprint = mesh_read.uvs_fingerprint(original)
     return TexelGeometry(uv_name, created, resolution, samples, seams, fingerprint, notes)

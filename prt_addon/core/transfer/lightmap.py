@@ -16,6 +16,7 @@ NEIGHBOURS = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx]
 SEAM_WEIGHT = 10.0  # weight of the seam term against the data term of a covered texel
 GUTTER_WEIGHT = 0.1  # data weight of an uncovered (gutter) texel: it is free to meet the seam
 SAMPLES_PER_TEXEL = 2  # seam samples per texel of edge length (the longer side)
+SMOOTH_TOLERANCE = 1e-3  # corner normals (unit) within this in every component: a smooth edge
 CG_ITERATIONS = 200
 CG_TOLERANCE = 1e-9  # relative residual of every channel
 
@@ -143,31 +144,44 @@ class SeamPairs:
         return a, b, seam
 
 
-def seam_pairs(corner_vertices: npt.ArrayLike, uvs: npt.ArrayLike, tolerance: float = 1e-6) -> SeamPairs:
+def seam_pairs(
+    corner_vertices: npt.ArrayLike,
+    uvs: npt.ArrayLike,
+    tolerance: float = 1e-6,
+    normals: npt.ArrayLike | None = None,
+    normal_tolerance: float = SMOOTH_TOLERANCE,
+) -> SeamPairs:
     """The UV seams of a mesh: corner_vertices (T, 3) mesh vertex per triangle corner, uvs (T, 3, 2).
     An edge (vertex pair) of two triangles whose ends' UVs differ by more than `tolerance` (in any
     component) between the two is a seam; an edge of more than two triangles pairs them in
-    order of triangle (first with second, second with third, ...); boundary edges are no seams."""
+    order of triangle (first with second, second with third, ...); boundary edges are no seams.
+    With corner `normals` (T, 3, 3), only smooth edges are seams (the two triangles' normals at
+    both ends within `normal_tolerance`): across a hard edge the light is not continuous."""
     cv = np.asarray(corner_vertices, dtype=np.int64).reshape(-1, 3)
     uv = np.asarray(uvs, dtype=np.float64).reshape(-1, 3, 2)
     if len(cv) != len(uv):
         raise ValueError("corner_vertices and uvs must have one row per triangle")
     a, b = cv, cv[:, [1, 2, 0]]
     ua, ub = uv, uv[:, [1, 2, 0]]
+    nrm = np.zeros((len(cv), 3, 3)) if normals is None else np.asarray(normals, dtype=np.float64).reshape(-1, 3, 3)
+    na, nb = nrm.reshape(-1, 3), nrm[:, [1, 2, 0]].reshape(-1, 3)
     swap = (a > b).ravel()
     lo, hi = np.minimum(a, b).ravel(), np.maximum(a, b).ravel()
     ua, ub = ua.reshape(-1, 2), ub.reshape(-1, 2)
     uv_lo = np.where(swap[:, None], ub, ua)
     uv_hi = np.where(swap[:, None], ua, ub)
+    n_lo, n_hi = np.where(swap[:, None], nb, na), np.where(swap[:, None], na, nb)
     tri = np.repeat(np.arange(len(cv)), 3)
     keep = lo != hi
     order = np.lexsort((tri[keep], hi[keep], lo[keep]))
     idx = np.flatnonzero(keep)[order]
     lo, hi, tri, uv_lo, uv_hi = lo[idx], hi[idx], tri[idx], uv_lo[idx], uv_hi[idx]
+    n_lo, n_hi = n_lo[idx], n_hi[idx]
     i = np.flatnonzero((lo[1:] == lo[:-1]) & (hi[1:] == hi[:-1]) & (tri[1:] != tri[:-1]))
     j = i + 1
     gap = np.maximum(np.abs(uv_lo[i] - uv_lo[j]).max(axis=1), np.abs(uv_hi[i] - uv_hi[j]).max(axis=1))
-    s = gap > tolerance
+    bend = np.maximum(np.abs(n_lo[i] - n_lo[j]).max(axis=1), np.abs(n_hi[i] - n_hi[j]).max(axis=1))
+    s = (gap > tolerance) & (bend <= normal_tolerance)
     i, j = i[s], j[s]
     return SeamPairs(
         np.stack([lo[i], hi[i]], axis=1),
