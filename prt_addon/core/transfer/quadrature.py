@@ -1,42 +1,27 @@
 """Diffuse transfer vectors by Monte-Carlo projection over a shared direction set.
 
-For a surface point x with unit normal n, the diffuse transfer is
-
-    unshadowed  T(w) = max(0, n . w) / pi
-    shadowed    T(w) = max(0, n . w) / pi * V(x, w)      (V = 1 if the ray x -> w is free)
-
-and its SH projection over the N equal-weight directions w_k of a DirectionSet is
+For a surface point x with unit normal n, the diffuse transfer is T(w) = max(0, n . w) / pi,
+times V(x, w) when shadowed (V = 1 if the ray x -> w is free), and its SH projection over the
+N equal-weight directions w_k of a DirectionSet is
 
     t_i = 4 pi / N * sum_k T(w_k) y_i(w_k).
 
 Radiance under lighting L (SH coefficients L_i, albedo applied later) is sum_i L_i t_i.
 
-Work skipped (counted in TransferStats, never traced):
-* directions with n . w <= 0 (T = 0 there: below the tangent plane);
-* every direction of a point where nothing can occlude: the caller says whether the point's own
-  mesh can occlude it (`self_occludes`, see core.trace.raytrace.cannot_self_occlude) and passes the
-  boxes of the other occluders; a point none of whose boxes reaches above its tangent plane and
-  whose own mesh cannot occlude it is unshadowed.
+Work skipped (counted in TransferStats, never traced): directions with n . w <= 0 (T = 0), and
+every direction of a point where nothing can occlude (its own mesh cannot, `self_occludes`, see
+core.trace.raytrace.cannot_self_occlude, and none of the other occluders' boxes reaches above its
+tangent plane).
 
-Error estimate (batch means): the direction set is split into K interleaved groups G_g (k mod K),
-each an unbiased quadrature t_g on its own, t = sum_g |G_g| t_g / N, and
+Error estimate (batch means): the set is split into K interleaved groups G_g (k mod K), each an
+unbiased quadrature t_g, and SE(t)^2 ~ sum_g (t_g - mean_g t_g)^2 / (K (K - 1)): K = 8 for i.i.d.
+directions, 2 for the Fibonacci and stratified sets, whose raw estimate error_calibration()
+corrects (core.transfer.stats); per point, the L2 norm over the coefficients.
 
-    SE(t)^2 ~ sum_g (t_g - mean_g t_g)^2 / (K (K - 1))
-
-(for K = 2: SE = |t_A - t_B| / 2): K = 8 for i.i.d. directions (UNIFORM), 2 for the Fibonacci and
-stratified sets, whose raw estimate error_calibration() corrects (core.transfer.stats). The
-per-point figure is the L2 norm over the coefficients.
-
-Memory and threads (docs/bake.md, "Threads, chunks and memory"): points go in slices of at most
-chunk_rays / threads candidate (point, direction) pairs per thread, each pair costing about
-RAY_BYTES and each point (K + 3) n^2 float64 accumulators, so the working set is about
-chunk_rays * RAY_BYTES whatever the sample count, order and mesh size; worker threads take whole
-slices (Embree and numpy release the GIL), queued ahead of the one step() collects.
-
-Interreflection (core.transfer.bounce): with a hit_sink, the rays of the first ceil(K / 2) error groups
-(directions [0, hit_end): a well-spread half of the set) ask for their nearest triangle instead,
-and the blocked ones go to the sink with their weights times N / hit_end (unbiased); its entries
-are kept per slice in point order (self.hits), made by step() if the sink returned a callable.
+Memory and threads (docs/bake.md): slices of at most chunk_rays / threads candidate rays per
+thread (RAY_BYTES each, (K + 3) n^2 float64 per point), queued ahead on worker threads.
+Interreflection (core.transfer.bounce): with a hit_sink, the blocked rays of the first ceil(K / 2)
+error groups go to the sink with their weights times N / hit_end, kept per slice (self.hits).
 """
 
 from __future__ import annotations
@@ -74,19 +59,15 @@ class TransferComputation:
     """Transfer vectors of P points, computed chunk by chunk (step()) or at once (run()).
 
     positions, normals: (P, 3) world-space; normals need not be unit (zero normals give t = 0).
-    occluder: None (unshadowed) or an object of the core.trace.raytrace protocol.
-    offset: ray origin offset along the normal, scalar or (P,) (see docs/bake.md).
-    self_occludes: bool or (P,) bool, whether the points' own mesh can occlude them.
-    other_boxes: (K, 2, 3) boxes of the other occluders (for culling); None means "unknown",
-    i.e. every point with self_occludes False is still traced unless other_boxes is given.
-    pool: an optional ThreadPoolExecutor to share between computations (else one is made and
-    shut down by close()).
-    surface: None or (vertices (V, 3), triangles (T, 3) int) of the points' own mesh, in the
-    space of `positions`; point_vertex: (P,) int, the vertex of each point (None: point i is
-    vertex i). With a surface, each origin is also moved by `offset` into the point's own
-    surface (inward_tangents): where another surface touches (a box standing on the ground),
-    the origin then lies on the side of that surface where the point's own faces are, and not
-    in its plane (docs/bake.md, "Contacts").
+    occluder: None (unshadowed) or a core.trace.occluders.Occluder; offset: ray origin offset
+    along the normal, scalar or (P,) (docs/bake.md); self_occludes: bool or (P,), whether the
+    points' own mesh can occlude them; other_boxes: (K, 2, 3) boxes of the other occluders for
+    culling (None: unknown, every point is traced); pool: a ThreadPoolExecutor to share (else
+    one is made, shut down by close()). surface: None or (vertices, triangles) of the points'
+    own mesh, point_vertex the vertex of each point (None: point i is vertex i): each origin is
+    also moved by `offset` into its own surface (inward_tangents), off the plane of a surface
+    that touches it (docs/bake.md, "Contacts"). subsets: point i sees only the directions
+    k = i mod subsets of the set (before the error groups' permutation; core.transfer.split).
     """
 
     def __init__(
@@ -105,6 +86,7 @@ class TransferComputation:
         surface: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
         point_vertex: npt.ArrayLike | None = None,
         hit_sink: Callable[..., tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None,
+        subsets: int = 1,
     ) -> None:
         if not isinstance(directions, DirectionSet):
             raise TypeError("directions must be a DirectionSet (core.sh.directions.make_directions)")
@@ -143,6 +125,11 @@ class TransferComputation:
         per_thread = max(1, self.chunk_rays // self.threads)
         accumulator_bytes = (groups + 3) * self.order * self.order * 8  # per point of a slice
         self.points_per_slice = max(1, per_thread * RAY_BYTES // (self.n_dirs * RAY_BYTES + accumulator_bytes))
+        # Point i sees only the directions k = i mod subsets (core.transfer.split); slices start
+        # at multiples of `subsets`, so a block's mask is one tile of the slice's pattern.
+        self.subsets = max(1, int(subsets))
+        self.points_per_slice = -(-self.points_per_slice // self.subsets) * self.subsets
+        self._subset_of = perm % self.subsets
         self.dir_block = min(self.n_dirs, per_thread)
         self.coeffs = np.zeros((count, self.order * self.order), dtype=np.float32)
         self.error = np.zeros(count, dtype=np.float32)
@@ -224,6 +211,10 @@ class TransferComputation:
         above = ws["above"][:size].reshape(n_pts, cols)
         np.greater(weight, 0.0, out=above)
         np.maximum(weight, 0.0, out=weight)
+        if self.subsets > 1:
+            mask = self._subset_mask(k0, k1)[:n_pts]
+            above &= mask
+            weight *= mask
         if not needs.any():  # unshadowed slice: nothing to trace
             empty = np.empty(0, dtype=_RAY16)
             return weight, int(np.count_nonzero(above)), np.empty(0, dtype=np.intp), empty, empty
@@ -237,6 +228,15 @@ class TransferComputation:
         origins = np.repeat(self.origins16[lo:hi], per_point)
         dirs = np.take(self._tiled_dirs(k0, k1), flat, out=ws["dirs"][: len(flat)])
         return weight, n_above, flat, origins, dirs
+
+    def _subset_mask(self, k0, k1):
+        """(points_per_slice, k1 - k0) bool: point i of a slice sees direction k (subsets > 1)."""
+        key = ("subset", k0, k1)
+        mask = self._tiles.get(key)
+        if mask is None:
+            rows = np.arange(self.points_per_slice) % self.subsets
+            mask = self._tiles[key] = rows[:, None] == self._subset_of[None, k0:k1]
+        return mask
 
     def _blocks(self):
         """(k0, k1) direction blocks of a slice, split at hit_end (bounced bakes)."""

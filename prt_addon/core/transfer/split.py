@@ -4,11 +4,13 @@ A texel of a lightmap is an area, not a point: Cycles' image bake averages over 
 S sample positions x_s per texel and the direction set split into S interleaved subsets
 D_s = {w_k : k = s mod S}, the texel's transfer is
 
-    t_i = 1/S sum_s 4 pi / |D_s| sum_{w in D_s} T(x_s, w) y_i(w)
+    t_i = 4 pi / N sum_s sum_{w in D_s} T(x_s, w) y_i(w)
 
-each term an unbiased quadrature over its own subset: the texel costs the N rays of one point, and
-where the S samples see the same (an open texel) t is exactly the full set's quadrature at a point.
-Its error estimate is sqrt(sum_s e_s^2) / S from the subsets' own estimates (core.transfer.quadrature).
+(for |D_s| = N / S, the mean of the S subsets' own quadratures): the texel costs the N rays of
+one point, and where the S samples see the same (an open texel) t is exactly the full set's
+quadrature at a point. One TransferComputation traces all the samples, texel-major (sample s of
+texel p is point p S + s, which sees the subset s: its `subsets` mask); t is the sum over a
+texel's samples, its error estimate the root of the sum of their squared estimates.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import numpy.typing as npt
 
 from ..sh.directions import DirectionSet
 from .quadrature import TransferComputation
-from .stats import Cancelled, TransferResult, TransferStats
+from .stats import TransferResult, TransferStats
 
 
 def direction_subsets(directions: DirectionSet, count: int) -> list[DirectionSet]:
@@ -34,12 +36,16 @@ def direction_subsets(directions: DirectionSet, count: int) -> list[DirectionSet
     return subsets
 
 
+def _interleave(values: np.ndarray) -> np.ndarray:
+    """(S, P, ...) -> (P S, ...): sample s of element p at row p S + s."""
+    return np.ascontiguousarray(np.swapaxes(values, 0, 1).reshape(-1, *values.shape[2:]))
+
+
 class SplitComputation:
-    """The transfer of P elements with S sample positions each: S TransferComputations, the s-th
-    over every element's s-th sample and the s-th direction subset, made and run one after the
-    other (one part's buffers at a time) and summed as they finish; coeffs and error are their
-    combination (module docstring). The same interface as TransferComputation (step, start,
-    close, cancel, done, total, fraction, stats, result)."""
+    """The transfer of P elements with S sample positions each (module docstring), with the
+    interface of TransferComputation (step, start, close, cancel, done, total, fraction, stats,
+    coeffs, error, result, run, iter_rays). positions, normals: (S, P, 3); offset and
+    self_occludes: scalars, (P,) or (S, P); other options as TransferComputation's."""
 
     def __init__(
         self,
@@ -55,48 +61,21 @@ class SplitComputation:
             raise ValueError(f"positions and normals must be (S, P, 3) arrays, got {positions.shape}, {normals.shape}")
         if options.get("hit_sink") is not None:
             raise ValueError("a split computation keeps no hits (bounces are baked at points)")
-        self._offset = np.asarray(options.pop("offset", 0.0), dtype=np.float64)
-        self._self_occludes = np.asarray(options.pop("self_occludes", True))
-        self._subsets = direction_subsets(directions, len(positions))
-        self._positions, self._normals, self._options = positions, normals, options
+        self.samples = min(len(positions), directions.count)
+        positions, normals = positions[: self.samples], normals[: self.samples]
+        count = positions.shape[1]
+        for name in ("offset", "self_occludes"):
+            if name in options:
+                value = np.asarray(options[name])
+                if value.ndim == 1:
+                    value = np.broadcast_to(value, (self.samples, count))
+                options[name] = _interleave(value) if value.ndim == 2 else value
         self.order = order
-        self.samples = len(self._subsets)
-        self._count = positions.shape[1]
-        self._sum = np.zeros((self._count, order * order))
-        self._square_error = np.zeros(self._count)
-        self._stats = TransferStats()
-        self._part: TransferComputation | None = None
-        self._current = 0  # the part running (== samples when all are done)
-        self._cancel = False
-        self.hits: list = []
-
-    def _make_part(self, s: int) -> TransferComputation:
-        def pick(value: np.ndarray) -> Any:
-            return value[s] if value.ndim == 2 else value
-
-        return TransferComputation(
-            self._positions[s],
-            self._normals[s],
-            self._subsets[s],
-            self.order,
-            offset=pick(self._offset),
-            self_occludes=pick(self._self_occludes),
-            **self._options,
+        self._count = count
+        self._part = TransferComputation(
+            _interleave(positions), _interleave(normals), directions, order, subsets=self.samples, **options
         )
-
-    def _current_part(self) -> TransferComputation | None:
-        if self._part is None and self._current < self.samples:
-            self._part = self._make_part(self._current)
-        return self._part
-
-    def _collect(self, part: TransferComputation) -> None:
-        """Add a finished part's transfer, error and counts, and drop its buffers."""
-        part.close()
-        self._sum += part.coeffs
-        self._square_error += np.asarray(part.error, np.float64) ** 2
-        self._stats.add(part.stats)
-        self._part = None
-        self._current += 1
+        self.hits: list = []
 
     @property
     def total(self) -> int:
@@ -104,70 +83,51 @@ class SplitComputation:
 
     @property
     def done(self) -> int:
-        """Elements done, counting each sample as 1/S of its element."""
-        running = self._part.done if self._part is not None else 0
-        return (self._current * self._count + running) // self.samples
+        return self._part.done // self.samples
 
     @property
     def fraction(self) -> float:
-        return self.done / self._count if self._count else 1.0
+        return self._part.fraction
 
     @property
     def stats(self) -> TransferStats:
-        total = TransferStats().add(self._stats)
-        if self._part is not None:
-            total.add(self._part.stats)
-        total.points = self._count
-        total.candidate_rays = self._count * sum(d.count for d in self._subsets)
-        return total
+        """The counts of the texels' own rays: each sample's masked-out directions (those of the
+        other subsets) are neither candidates nor skipped."""
+        stats = TransferStats().add(self._part.stats)
+        masked = stats.candidate_rays - stats.candidate_rays // self.samples
+        stats.points = self._count
+        stats.candidate_rays -= masked
+        stats.skipped_below_horizon -= masked * self._part.done // max(1, self._part.total)
+        return stats
 
     @property
     def coeffs(self) -> np.ndarray:
-        return (self._sum / self.samples).astype(np.float32)
+        per_sample = self._part.coeffs.reshape(self._count, self.samples, -1).astype(np.float64)
+        return per_sample.sum(axis=1).astype(np.float32)
 
     @property
     def error(self) -> np.ndarray:
-        return (np.sqrt(self._square_error) / self.samples).astype(np.float32)
+        per_sample = np.asarray(self._part.error, np.float64).reshape(self._count, self.samples)
+        return np.sqrt((per_sample**2).sum(axis=1)).astype(np.float32)
 
     def cancel(self) -> None:
-        self._cancel = True
-        if self._part is not None:
-            self._part.cancel()
+        self._part.cancel()
 
     def start(self) -> None:
-        part = self._current_part()
-        if part is not None:
-            part.start()
+        self._part.start()
 
     def step(self) -> bool:
-        """Process one chunk of the current sample's computation; False when all are done."""
-        if self._cancel:
-            raise Cancelled()
-        part = self._current_part()
-        if part is None:
-            return False
-        if part.step():
-            return True
-        self._collect(part)
-        nxt = self._current_part()
-        if nxt is None:
-            return False
-        nxt.start()
-        return True
+        return self._part.step()
 
     def close(self) -> None:
-        if self._part is not None:
-            self._part.close()
+        self._part.close()
 
     def result(self) -> TransferResult:
         return TransferResult(self.coeffs, self.error, self.stats)
 
     def iter_rays(self) -> Iterator[tuple[np.ndarray, np.ndarray]]:
         """Every (origins, directions) batch traced, in the same order (benchmarks)."""
-        for s in range(self.samples):
-            part = self._make_part(s)
-            yield from part.iter_rays()
-            part.close()
+        return self._part.iter_rays()
 
     def run(self, progress: Callable[[float], object] | None = None) -> TransferResult:
         try:

@@ -1,0 +1,149 @@
+"""Texel bakes: time against raw Embree tracing the same rays, texels/s and rays/s, peak memory at 2048 x 2048, frame cost against vertex bakes.
+
+Run after the test command has made the venv:  .venv/bin/python benchmarks/bench_texel_bake.py
+(--memory-only / --no-memory). Ratios are measured side by side in one run; 2-core figures are
+noisy, so each ratio is the median of --repeats pairs.
+"""
+
+import argparse
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import threading
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+sys.path.insert(0, os.path.join(ROOT, "tests"))
+
+import bpy
+import numpy as np
+
+import prt_addon
+from prt_addon import api
+from prt_addon.blender.bake import job as bake_job, settings as bake_settings
+from prt_addon.blender.scene import lighting, parts as scene_parts
+from prt_addon.core.trace import raytrace
+from prt_addon.core.transfer import mesh as core_mesh
+
+SKY = np.zeros((16, 3))
+SKY[0] = np.sqrt(4.0 * np.pi)
+SKY[2] = 1.0
+
+
+def room(res):
+    import texel_scenes
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    objs = texel_scenes.low_poly_room(bpy)
+    lighting.set_light_override(bpy.context.scene, SKY)
+    return objs, dict(order=4, samples=256, target="TEXELS", resolution=res, uv_map=texel_scenes.LIGHTMAP)
+
+
+def bake_seconds(objs, options, threads):
+    t0 = time.perf_counter()
+    report = api.bake(objs, threads=threads, **options)
+    return time.perf_counter() - t0, report
+
+
+def raw_seconds(objs, options, threads):
+    """Embree alone on the bake's own ray batches, the same threads, a BVH built beforehand."""
+    settings = bake_settings.BakeSettings(backend="EMBREE", threads=threads, **options)
+    job = bake_job.BakeJob(objs, settings)
+    batches = [b for plan in job.plans for b in plan.computation.iter_rays()]
+    job.close()
+    parts = scene_parts.scene_parts(bpy.context.evaluated_depsgraph_get())
+    occ = raytrace.EmbreeOccluder(*core_mesh.concatenate_parts(parts))
+
+    def work(i):
+        for o, d in batches[i::threads]:
+            occ.occluded(o, d)
+
+    pool = [threading.Thread(target=work, args=(i,)) for i in range(threads)]
+    t0 = time.perf_counter()
+    for t in pool:
+        t.start()
+    for t in pool:
+        t.join()
+    return time.perf_counter() - t0, sum(len(o) for o, _d in batches)
+
+
+def speed(res, threads, repeats):
+    objs, options = room(res)
+    ratios, bakes, raws = [], [], []
+    for _ in range(repeats):
+        raw, rays = raw_seconds(objs, options, threads)
+        seconds, report = bake_seconds(objs, options, threads)
+        ratios.append(seconds / raw)
+        bakes.append(seconds)
+        raws.append(raw)
+    seconds = statistics.median(bakes)
+    print(f"room, {len(objs)} objects, {res} x {res} texels each, order 4, 256 directions, {threads} threads:")
+    print(f"  texels {report.texels:,}, rays traced {report.rays_traced:,} (raw batches {rays:,})")
+    print(
+        f"  bake {seconds:.3f} s: {report.texels / seconds:,.0f} texels/s, {report.rays_traced / seconds:,.0f} rays/s"
+    )
+    print(f"  raw Embree on the same rays {statistics.median(raws):.3f} s")
+    print(f"  bake / raw Embree: median {statistics.median(ratios):.2f} (runs {', '.join(f'{r:.2f}' for r in ratios)})")
+
+
+def memory_child(res, order):
+    objs, options = room(16)
+    floor = objs[0]
+    options.update(order=order, resolution=res, samples=64)
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    t0 = time.perf_counter()
+    report = api.bake([floor], **options)
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    estimate = bake_settings.texel_memory(res, order)
+    print(
+        f"{res} x {res} texels, order {order}: {report.texels:,} texels in {time.perf_counter() - t0:.1f} s, "
+        f"peak RSS {peak / 2**20:.2f} GiB (before the bake {before / 2**20:.2f} GiB), "
+        f"estimate {estimate / 2**30:.2f} GiB"
+    )
+
+
+def frame_cost(frames):
+    from prt_addon.blender.display import offscreen
+
+    objs, options = room(64)
+    scene = bpy.context.scene
+    bpy.ops.object.camera_add(location=(4.0, -6.0, 3.0), rotation=(1.2, 0.0, 0.6))
+    scene.camera = bpy.context.object
+    assert offscreen.ensure_gpu()
+    times = {}
+    for target in ("VERTICES", "TEXELS"):
+        api.bake(objs, **dict(options, target=target))
+        api.render_view(scene, 512, 512)  # (uploads)
+        t0 = time.perf_counter()
+        for _ in range(frames):
+            api.render_view(scene, 512, 512)
+        times[target] = (time.perf_counter() - t0) / frames
+    print(
+        f"frame at 512 x 512 (render_view, the room, order 4): vertices {1e3 * times['VERTICES']:.1f} ms, "
+        f"texels (64 x 64 each) {1e3 * times['TEXELS']:.1f} ms, ratio {times['TEXELS'] / times['VERTICES']:.2f}"
+    )
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--no-memory", action="store_true")
+    parser.add_argument("--memory-child", nargs=2, type=int, metavar=("RES", "ORDER"))
+    args = parser.parse_args()
+    prt_addon.register()
+    if args.memory_child:
+        memory_child(*args.memory_child)
+        return
+    speed(64, args.threads, args.repeats)
+    frame_cost(5)
+    if not args.no_memory:
+        for res, order in ((1024, 8), (2048, 8)):
+            subprocess.run([sys.executable, __file__, "--memory-child", str(res), str(order)], check=True)
+
+
+if __name__ == "__main__":
+    main()
