@@ -26,6 +26,9 @@ from .plans import check_object
 from .settings import BakeError, BakeReport, BakeSettings, blender_threads, fallback_note, resolve_backend
 from .texels import bakes_texels, prepare_texels, texel_image, unwrap_ahead, within_memory
 
+# Objects that hold no geometry to bake (selected with the meshes, they are left out quietly).
+NO_GEOMETRY = {"CAMERA", "LIGHT", "EMPTY", "LIGHT_PROBE", "SPEAKER", "ARMATURE", "LATTICE"}
+
 # Progress weight of one bounce pass per node, against one traced point (measured ~0.1 to 0.3).
 PASS_WORK = 0.2
 
@@ -65,11 +68,13 @@ class BakeJob:
             for obj in objects:
                 reason = check_object(obj, depsgraph, seen_meshes, self._reads, self.settings.cull)
                 if isinstance(reason, str):
-                    self.report.skipped.append((getattr(obj, "name", repr(obj)), reason))
+                    name = getattr(obj, "name", repr(obj))
+                    quiet = getattr(obj, "type", None) in NO_GEOMETRY
+                    (self.report.left_out if quiet else self.report.skipped).append((name, reason))
                 else:
                     self.plans.append(reason)
             if not self.plans:
-                reasons = "; ".join(f"'{n}' {r}" for n, r in self.report.skipped)
+                reasons = "; ".join(f"'{n}' {r}" for n, r in self.report.skipped + self.report.left_out)
                 raise BakeError(f"nothing to bake: {reasons}")
             self._assign_occluders()
             # The scene's BVH builds on a worker while the baked points are prepared here

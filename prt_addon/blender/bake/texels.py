@@ -194,7 +194,7 @@ def texel_image(samples, coeffs, seams, passes=GUTTER):
     """(res, res, n*n) float32 transfer image of a texel bake: the covered texels' coefficients,
     the gutter filled around each chart, the two sides of every seam made to agree."""
     res = samples.resolution
-    image = np.zeros((res * res, coeffs.shape[1]), dtype=np.float64)
+    image = np.zeros((res * res, coeffs.shape[1]), dtype=np.float32)
     image[samples.texels] = coeffs
     covered = np.zeros(res * res, dtype=bool)
     covered[samples.texels] = True

@@ -102,8 +102,8 @@ class SplitComputation:
 
     @property
     def coeffs(self) -> np.ndarray:
-        per_sample = self._part.coeffs.reshape(self._count, self.samples, -1).astype(np.float64)
-        return per_sample.sum(axis=1).astype(np.float32)
+        per_sample = self._part.coeffs.reshape(self._count, self.samples, -1)
+        return per_sample.sum(axis=1, dtype=np.float64).astype(np.float32)  # (no float64 copy of all samples)
 
     @property
     def error(self) -> np.ndarray:
