@@ -179,7 +179,7 @@ def test_fix_seams_is_the_least_squares_solution():
     d = np.where(covered.ravel(), 1.0, gutter)
     x0 = image.reshape(-1, 2)
     x = np.linalg.solve(np.diag(d) + weight * rows_b.T @ rows_b, d[:, None] * x0)
-    out = fix_seams(image, seams, covered, weight=weight, gutter_weight=gutter)
+    out = fix_seams(image, seams, covered, weight=weight, gutter_weight=gutter, tolerance=1e-13)
     np.testing.assert_allclose(out.reshape(-1, 2), x, atol=1e-8)
 
 
