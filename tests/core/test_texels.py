@@ -204,3 +204,20 @@ def test_image_scatters_values_into_the_covered_texels():
     assert image.shape == (8, 8, 1)
     assert np.array_equal(np.flatnonzero(image[..., 0].ravel()), s.texels)
     assert image.reshape(-1)[s.texels[3]] == 4
+
+
+def test_a_triangle_thinner_than_a_texel_covers_the_texels_it_crosses():
+    res = 20
+    uv = np.array([[[0.1, 0.5 + 0.45 / res], [0.9, 0.5 + 0.45 / res], [0.9, 0.5 + 0.55 / res]]])  # 0.1 texel high
+    pos = np.concatenate([uv, np.zeros((1, 3, 1))], -1)
+    s = texel_samples(uv, pos, np.tile([0.0, 0.0, 1.0], (1, 3, 1)), res)
+    row, cols = int(0.5 * res), np.arange(int(0.1 * res), int(np.ceil(0.9 * res)))
+    assert np.array_equal(s.texels, row * res + cols)
+    # It lies between the offsets' rows (0.375, 0.625): every sample is snapped onto its closest point.
+    tri = uv[0] * res
+    suv = sample_uvs(s)
+    for si in range(len(SAMPLE_OFFSETS)):
+        for k in range(s.count):
+            d, q, _b = point_triangle(suv[si, k] * res, tri)
+            assert d > 0
+            np.testing.assert_allclose(s.positions[si, k, :2] * res, q, atol=1e-9)

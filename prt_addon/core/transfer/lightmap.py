@@ -17,8 +17,8 @@ SEAM_WEIGHT = 10.0  # weight of the seam term against the data term of a covered
 GUTTER_WEIGHT = 0.1  # data weight of an uncovered (gutter) texel: it is free to meet the seam
 SAMPLES_PER_TEXEL = 2  # seam samples per texel of edge length (the longer side)
 SMOOTH_TOLERANCE = 1e-3  # corner normals (unit) within this in every component: a smooth edge
-CG_ITERATIONS = 200
-CG_TOLERANCE = 1e-9  # relative residual of every channel
+CG_ITERATIONS = 100
+CG_TOLERANCE = 1e-6  # relative residual of every channel (float32 images hold ~1e-7)
 
 
 def bilinear_taps(uv: npt.ArrayLike, height: int, width: int | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -46,72 +46,101 @@ def bilinear(image: npt.ArrayLike, uv: npt.ArrayLike) -> np.ndarray:
     return np.einsum("nk,nkc->nc", weight, flat[index].astype(np.float64))
 
 
-def _shifted(a, dy, dx, fill):
-    """a shifted so that out[i, j] = a[i + dy, j + dx] (fill outside)."""
-    out = np.full_like(a, fill)
-    h, w = a.shape[:2]
-    out[max(0, -dy) : h - max(0, dy), max(0, -dx) : w - max(0, dx)] = a[
-        max(0, dy) : h - max(0, -dy), max(0, dx) : w - max(0, -dx)
-    ]
-    return out
-
-
 def dilate(image: npt.ArrayLike, covered: npt.ArrayLike, passes: int = 4, rest: str = "nearest") -> np.ndarray:
     """image (H, W, C) with its uncovered texels filled: each of `passes` passes gives every
     unfilled texel with a filled 8-neighbour the mean of its filled 8-neighbours (a gutter of
     `passes` texels: every texel within Chebyshev distance `passes` of a covered one). The texels
-    further out get the value of the nearest filled texel (rest="nearest", Euclidean distance
-    between texel centres, by jump flooding) or 0 (rest="zero")."""
-    img = np.array(image, dtype=np.float64)
-    squeeze = img.ndim == 2
-    if squeeze:
-        img = img[:, :, None]
-    filled = np.array(covered, dtype=bool).reshape(img.shape[:2])
-    img[~filled] = 0.0
-    for _ in range(int(passes)):
-        if filled.all():
-            break
-        total = np.zeros_like(img)
-        count = np.zeros(filled.shape)
-        for dy, dx in NEIGHBOURS:
-            total += _shifted(img, dy, dx, 0.0)  # unfilled texels hold 0
-            count += _shifted(filled, dy, dx, False)
-        grow = ~filled & (count > 0)
-        img[grow] = total[grow] / count[grow, None]
-        filled |= grow
-    if rest == "nearest" and filled.any() and not filled.all():
-        sy, sx = _nearest_seeds(filled)
-        gap = ~filled
-        img[gap] = img[sy[gap], sx[gap]]
-    elif rest not in ("nearest", "zero"):
+    further out get the value of the nearest filled texel (rest="nearest") or 0 (rest="zero").
+
+    The gutter goes ring by ring (work proportional to the texels filled); "nearest" is the exact
+    Euclidean nearest filled texel (between texel centres) of _nearest_seed."""
+    if rest not in ("nearest", "zero"):
         raise ValueError("rest must be 'nearest' or 'zero'")
-    return img[:, :, 0] if squeeze else img
+    img = np.asarray(image)
+    squeeze = img.ndim == 2
+    height, width = img.shape[:2]
+    img3 = img.reshape(height, width, -1)
+    cov = np.asarray(covered, dtype=bool).reshape(height, width)
+    # A padded grid: the border ring is never filled nor open, so no bounds checks.
+    grid = np.zeros((height + 2, width + 2, img3.shape[2]))
+    grid[1:-1, 1:-1] = np.where(cov[:, :, None], img3, 0.0)
+    filled2 = np.zeros((height + 2, width + 2), dtype=bool)
+    filled2[1:-1, 1:-1] = cov
+    open2 = np.zeros_like(filled2)
+    open2[1:-1, 1:-1] = ~cov
+    near_open = np.zeros_like(filled2)
+    for dy, dx in NEIGHBOURS:
+        near_open[1:-1, 1:-1] |= open2[1 + dy : height + 1 + dy, 1 + dx : width + 1 + dx]
+    values, filled, open_ = grid.reshape(-1, img3.shape[2]), filled2.ravel(), open2.ravel()
+    wide = width + 2
+    offsets = np.array([dy * wide + dx for dy, dx in NEIGHBOURS])
+    front = np.flatnonzero(filled2 & near_open)  # the covered texels next to an open one
+    layer = 0
+    while len(front) and layer < passes:
+        ring = front[:, None] + offsets
+        ring = np.unique(ring[open_[ring]])
+        if not len(ring):
+            break
+        neighbours = ring[:, None] + offsets  # (K, 8)
+        known = filled[neighbours]
+        total = np.einsum("kn,knc->kc", known.astype(np.float64), values[neighbours])
+        values[ring] = total / known.sum(axis=1)[:, None]
+        filled[ring] = True
+        open_[ring] = False
+        front = ring
+        layer += 1
+    out = grid[1:-1, 1:-1].copy()
+    done = filled2[1:-1, 1:-1].ravel()
+    if rest == "nearest" and done.any() and not done.all():
+        nearest = _nearest_seed(done.reshape(height, width)).ravel()
+        gap = np.flatnonzero(~done)
+        flat = out.reshape(-1, img3.shape[2])
+        flat[gap] = flat[nearest[gap]]
+    return out[:, :, 0] if squeeze else out
 
 
-def _nearest_seeds(seeds):
-    """(row, col) of the nearest True texel of every texel, by jump flooding (Rong and Tan 2006)
-    with a final step of 1 (JFA+1), which leaves almost no texel with a wrong seed."""
-    h, w = seeds.shape
-    rows, cols = np.indices((h, w))
-    sy = np.where(seeds, rows, -1)
-    sx = np.where(seeds, cols, -1)
-    big = np.int64(4 * (h + w) ** 2)
-    dist = np.where(seeds, 0, big)
-    step = 1 << max(0, int(np.ceil(np.log2(max(h, w)))) - 1)
-    steps = []
-    while step >= 1:
-        steps.append(step)
-        step //= 2
-    for step in steps + [1]:
-        for dy in (-step, 0, step):
-            for dx in (-step, 0, step):
-                if not (dy or dx):
-                    continue
-                cy, cx = _shifted(sy, dy, dx, -1), _shifted(sx, dy, dx, -1)
-                d = np.where(cy >= 0, (cy - rows) ** 2 + (cx - cols) ** 2, big)
-                better = d < dist
-                sy, sx, dist = np.where(better, cy, sy), np.where(better, cx, sx), np.where(better, d, dist)
-    return sy, sx
+def _nearest_seed(seeds: np.ndarray) -> np.ndarray:
+    """(H, W) flat index (row * W + col) of the nearest True texel of `seeds` (H, W) (Euclidean
+    distance between texel centres; any True texel required), by the exact separable distance
+    transform of Felzenszwalb and Huttenlocher (2012, "Distance transforms of sampled functions"):
+    the nearest seed of each column by running extrema, then per row the lower envelope of the
+    parabolas (q - c)^2 + g(c)^2, every row at once (the loops run over the columns)."""
+    height, width = seeds.shape
+    rows = np.arange(height)[:, None]
+    above = np.maximum.accumulate(np.where(seeds, rows, -1), axis=0)  # nearest seed row <= r
+    below = np.minimum.accumulate(np.where(seeds, rows, 2 * height)[::-1], axis=0)[::-1]  # >= r
+    take_above = (above >= 0) & ((rows - above) <= (below - rows))
+    nearest_row = np.where(take_above, above, below)  # 2 * height: no seed in the column
+    big = 4.0 * (height + width) ** 2  # stands for +inf and never wins against a real seed
+    f = np.where(nearest_row < height, (nearest_row - rows).astype(np.float64) ** 2, big)
+    r = np.arange(height)
+    v = np.zeros((height, width), dtype=np.int64)  # the envelope's parabolas (columns), per row
+    z = np.full((height, width + 1), np.inf)  # and the boundaries between them
+    z[:, 0] = -np.inf
+    k = np.zeros(height, dtype=np.int64)
+    for q in range(1, width):
+        fq = f[:, q] + q * q
+        while True:
+            vk = v[r, k]
+            s = (fq - (f[r, vk] + vk * vk)) / (2.0 * (q - vk))
+            pop = s <= z[r, k]
+            if not pop.any():
+                break
+            k -= pop
+        k += 1
+        v[r, k] = q
+        z[r, k] = s
+        z[r, k + 1] = np.inf
+    best = np.empty((height, width), dtype=np.int64)
+    k[:] = 0
+    for q in range(width):
+        while True:
+            step = z[r, k + 1] < q
+            if not step.any():
+                break
+            k += step
+        best[:, q] = v[r, k]
+    return nearest_row[r[:, None], best] * width + best
 
 
 @dataclass
@@ -198,6 +227,7 @@ def fix_seams(
     weight: float = SEAM_WEIGHT,
     gutter_weight: float = GUTTER_WEIGHT,
     iterations: int = CG_ITERATIONS,
+    tolerance: float = CG_TOLERANCE,
 ) -> np.ndarray:
     """image (H, W, C) with its texels along the seams changed to minimise (Iwanicki 2013, "Lighting
     Technology of The Last of Us"; the ands/seamoptimizer library)
@@ -207,7 +237,8 @@ def fix_seams(
     over the texels the seam samples' bilinear taps touch (d_i = 1 if covered, gutter_weight if
     not); the others are unchanged. The normal equations (D + weight B^T B) x = D x0, B the (N, n)
     differences of the two sides' tap weights, are solved by Jacobi-preconditioned conjugate
-    gradients, all C channels at once, from x0, for at most `iterations` steps."""
+    gradients, all C channels at once, from x0, until every channel's residual is below
+    `tolerance` of its right-hand side or for at most `iterations` steps."""
     img = np.asarray(image)
     squeeze = img.ndim == 2
     height, width = img.shape[:2]
@@ -221,42 +252,38 @@ def fix_seams(
     texels, local = np.unique(np.concatenate([ia, ib], axis=1), return_inverse=True)
     local = local.reshape(len(ia), 8)
     coef = np.concatenate([wa, -wb], axis=1)
-    n = len(texels)
-    x0 = flat[texels].astype(np.float64)
+    n, channels = len(texels), flat.shape[1]
+    x0 = np.ascontiguousarray(flat[texels].T, dtype=np.float64)  # (C, n): channel-major
     d = np.where(np.asarray(covered, dtype=bool).reshape(-1)[texels], 1.0, float(gutter_weight))
-
-    # B^T y as a scatter-add: the (sample, tap) entries sorted by texel, summed by np.add.reduceat.
-    by_texel = np.argsort(local.ravel(), kind="stable")
-    sorted_local = local.ravel()[by_texel]
-    first = np.flatnonzero(np.r_[True, sorted_local[1:] != sorted_local[:-1]])
-    coef_sorted = coef.ravel()[by_texel]
-    sample_sorted = by_texel // 8
+    # Every channel at once: channel c's texel i is entry c n + i of the raveled (C, n) array.
+    taps = local[None] + n * np.arange(channels)[:, None, None]  # (C, N, 8)
+    taps_flat = taps.ravel()
 
     def apply(x):
-        diff = np.einsum("nk,nkc->nc", coef, x[local])  # (N, C) bilinear_a - bilinear_b
-        grad = np.add.reduceat(coef_sorted[:, None] * diff[sample_sorted], first, axis=0)
-        return d[:, None] * x + weight * grad
+        diff = np.einsum("nk,cnk->cn", coef, np.take(x, taps))  # bilinear_a - bilinear_b
+        grad = np.bincount(taps_flat, weights=(coef[None] * diff[:, :, None]).ravel(), minlength=channels * n)
+        return d * x + weight * grad.reshape(channels, n)
 
     diag = d + weight * np.bincount(local.ravel(), weights=(coef * coef).ravel(), minlength=n)
-    rhs = d[:, None] * x0
+    rhs = d * x0
     x = x0.copy()
     r = rhs - apply(x)
-    limit = CG_TOLERANCE * np.maximum(np.linalg.norm(rhs, axis=0), 1e-300)
-    z = r / diag[:, None]
+    limit = float(tolerance) * np.maximum(np.linalg.norm(rhs, axis=1), 1e-300)
+    z = r / diag
     p = z.copy()
-    rz = np.einsum("nc,nc->c", r, z)
+    rz = np.einsum("cn,cn->c", r, z)
     for _ in range(int(iterations)):
-        if (np.linalg.norm(r, axis=0) <= limit).all():
+        if (np.linalg.norm(r, axis=1) <= limit).all():
             break
         ap = apply(p)
-        pap = np.einsum("nc,nc->c", p, ap)
+        pap = np.einsum("cn,cn->c", p, ap)
         alpha = np.divide(rz, pap, out=np.zeros_like(rz), where=pap > 0)
-        x += alpha * p
-        r -= alpha * ap
-        z = r / diag[:, None]
-        rz_new = np.einsum("nc,nc->c", r, z)
+        x += alpha[:, None] * p
+        r -= alpha[:, None] * ap
+        z = r / diag
+        rz_new = np.einsum("cn,cn->c", r, z)
         beta = np.divide(rz_new, rz, out=np.zeros_like(rz), where=rz > 0)
-        p = z + beta * p
+        p = z + beta[:, None] * p
         rz = rz_new
-    out[texels] = x
+    out[texels] = x.T
     return out.reshape(img.shape[:2]) if squeeze else out.reshape(img.shape)

@@ -186,7 +186,8 @@ def texel_samples(
         outside,
         degenerate,
     )
-    tables = _Tables(x, y, inv, floor, shrink, sx, sy, pos.reshape(-1, 9), nrm.reshape(-1, 9), face, off)
+    pos9, nrm9 = pos.reshape(-1, 9), nrm.reshape(-1, 9)
+    tables = _Tables(x, y, inv, floor, shrink, sx, sy, pos9, nrm9, face, off, bool((floor > 0).any()))
     width = c1 - c0 + 1
     done_pairs = np.cumsum(width)
     bounds = np.searchsorted(done_pairs, np.arange(BAND_PAIRS, int(done_pairs[-1]) if len(width) else 0, BAND_PAIRS))
@@ -218,6 +219,7 @@ class _Tables:
     nrm9: np.ndarray  # (T, 9) corner normals
     face: np.ndarray  # (T, 3) face normals, on the corner normals' side
     off: np.ndarray  # (S, 2) sample offsets
+    inset: bool  # any floor above 0
 
 
 def _resolve_band(key, count_t, res, tb, out, filled):
@@ -239,7 +241,6 @@ def _resolve_band(key, count_t, res, tb, out, filled):
     b1 = i4[0] * dx + i4[1] * dy
     b2 = i4[2] * dx + i4[3] * dy
     b0 = 1.0 - b1 - b2
-    low = np.minimum(np.minimum(b0, b1), b2)
     winner = np.broadcast_to(starts, (count_s, g)).copy()
     if g < n:
         # Texels shared by several triangles: the first containing a sample owns it, else the
@@ -249,7 +250,7 @@ def _resolve_band(key, count_t, res, tb, out, filled):
         pairs = np.flatnonzero(np.repeat(size > 1, size))
         sub_starts = np.searchsorted(pairs, starts[shared])
         sub_group = np.repeat(np.arange(len(shared)), size[shared])
-        sub_low = low[:, pairs]
+        sub_low = np.minimum(np.minimum(b0[:, pairs], b1[:, pairs]), b2[:, pairs])
         inside = sub_low >= -INSIDE_EPS
         any_in = np.logical_or.reduceat(inside, sub_starts, axis=1)
         score = np.where(inside, -1.0, np.inf)
@@ -269,13 +270,16 @@ def _resolve_band(key, count_t, res, tb, out, filled):
         for j, b in enumerate((b0, b1, b2)):
             bary[..., j] = np.take_along_axis(b, winner, axis=1)
     wt = pair_tri[winner]  # (S, G)
-    floor = tb.floor[wt]
-    fs, fi = np.nonzero((bary < floor).any(axis=-1))
+    if tb.inset:
+        floor = tb.floor[wt]
+        fs, fi = np.nonzero((bary < floor).any(axis=-1))
+    else:
+        fs, fi = np.nonzero(bary.min(axis=-1) < 0)
     if len(fs):
         t = wt[fs, fi]
         w = winner[fs, fi]
         _d, edge = _closest_on_edges(px[fs, w], py[fs, w], tb.sx[t], tb.sy[t])
-        fixed = (1.0 - tb.shrink[t, None]) * edge + floor[fs, fi]
+        fixed = (1.0 - tb.shrink[t, None]) * edge + tb.floor[t]
         np.clip(fixed, 0.0, 1.0, out=fixed)
         bary[fs, fi] = fixed / fixed.sum(axis=1, keepdims=True)
     out.texels[sl] = pair_texel[starts]
