@@ -197,6 +197,23 @@ def test_degenerate_triangles_are_skipped_and_counted():
     assert (s.triangles < 2).all()
 
 
+def test_average_is_the_mean_over_each_texels_samples():
+    uv, pos, nrm, (o, a, b) = affine_quad((0.1, 0.2, 0.9, 0.7))
+    s = texel_samples(uv, pos, nrm, 12)
+    flat = s.positions.reshape(-1, 3)  # the bake points, sample-major
+    values = np.concatenate([flat, np.repeat(np.arange(len(SAMPLE_OFFSETS)), s.count)[:, None]], axis=1)
+    mean = s.average(values)
+    assert mean.shape == (s.count, 4)
+    np.testing.assert_allclose(mean[:, 3], np.mean(np.arange(len(SAMPLE_OFFSETS))))
+    # Texels whose offset points are all on the rectangle: the samples are not moved, the mean of
+    # the RGSS offsets is the centre, and the map is affine.
+    row, col = np.divmod(s.texels, 12)
+    centre = np.stack([(col + 0.5) / 12, (row + 0.5) / 12], -1)
+    full = np.all((sample_uvs(s) >= [0.1, 0.2]) & (sample_uvs(s) <= [0.9, 0.7]), axis=(0, 2))
+    np.testing.assert_allclose(mean[full, :3], (o + centre[:, :1] * a + centre[:, 1:] * b)[full], atol=1e-12)
+    assert full.sum() > 0.5 * s.count
+
+
 def test_image_scatters_values_into_the_covered_texels():
     uv, pos, nrm, _ = affine_quad((0.25, 0.5, 0.5, 1.0))
     s = texel_samples(uv, pos, nrm, 8)

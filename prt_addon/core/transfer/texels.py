@@ -53,6 +53,12 @@ class TexelSamples:
         mask[self.texels] = True
         return mask.reshape(self.resolution, self.resolution)
 
+    def average(self, values: npt.ArrayLike) -> np.ndarray:
+        """(P, C) texel values, the mean over its S samples of values (S P, C) given in the order
+        of positions.reshape(-1, 3) (sample-major: all texels' sample 0, then sample 1, ...)."""
+        v = np.asarray(values, dtype=np.float64)
+        return v.reshape(len(self.triangles), self.count, -1).mean(axis=0)
+
     def image(self, values: npt.ArrayLike, fill: float = 0.0) -> np.ndarray:
         """(res, res, C) float image with values (P, C) (or (P,)) at the covered texels."""
         v = np.asarray(values)
