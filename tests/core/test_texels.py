@@ -238,3 +238,23 @@ def test_a_triangle_thinner_than_a_texel_covers_the_texels_it_crosses():
             d, q, _b = point_triangle(suv[si, k] * res, tri)
             assert d > 0
             np.testing.assert_allclose(s.positions[si, k, :2] * res, q, atol=1e-9)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_bands_and_threads_do_not_change_the_result(monkeypatch, threads):
+    from prt_addon.core.transfer import texels
+
+    uv, pos, nrm = random_layout(40, 6, 24)
+    uv = np.concatenate([uv, uv[:5] + 0.01])  # some overlaps too
+    pos, nrm = np.concatenate([pos, pos[:5]]), np.concatenate([nrm, nrm[:5]])
+    whole = texel_samples(uv, pos, nrm, 24, threads=1)
+    monkeypatch.setattr(texels, "BAND_PAIRS", 37)  # many bands, cut between rows
+    banded = texel_samples(uv, pos, nrm, 24, threads=threads)
+    assert whole.overlapping > 0
+    for name in ("texels", "triangles", "barycentrics", "positions", "normals"):
+        np.testing.assert_array_equal(getattr(banded, name), getattr(whole, name))
+    assert (banded.overlapping, banded.outside, banded.degenerate) == (
+        whole.overlapping,
+        whole.outside,
+        whole.degenerate,
+    )
