@@ -197,6 +197,23 @@ def test_degenerate_triangles_are_skipped_and_counted():
     assert (s.triangles < 2).all()
 
 
+def test_average_is_the_mean_over_each_texels_samples():
+    uv, pos, nrm, (o, a, b) = affine_quad((0.1, 0.2, 0.9, 0.7))
+    s = texel_samples(uv, pos, nrm, 12)
+    flat = s.positions.reshape(-1, 3)  # the bake points, sample-major
+    values = np.concatenate([flat, np.repeat(np.arange(len(SAMPLE_OFFSETS)), s.count)[:, None]], axis=1)
+    mean = s.average(values)
+    assert mean.shape == (s.count, 4)
+    np.testing.assert_allclose(mean[:, 3], np.mean(np.arange(len(SAMPLE_OFFSETS))))
+    # Texels whose offset points are all on the rectangle: the samples are not moved, the mean of
+    # the RGSS offsets is the centre, and the map is affine.
+    row, col = np.divmod(s.texels, 12)
+    centre = np.stack([(col + 0.5) / 12, (row + 0.5) / 12], -1)
+    full = np.all((sample_uvs(s) >= [0.1, 0.2]) & (sample_uvs(s) <= [0.9, 0.7]), axis=(0, 2))
+    np.testing.assert_allclose(mean[full, :3], (o + centre[:, :1] * a + centre[:, 1:] * b)[full], atol=1e-12)
+    assert full.sum() > 0.5 * s.count
+
+
 def test_image_scatters_values_into_the_covered_texels():
     uv, pos, nrm, _ = affine_quad((0.25, 0.5, 0.5, 1.0))
     s = texel_samples(uv, pos, nrm, 8)
@@ -221,3 +238,23 @@ def test_a_triangle_thinner_than_a_texel_covers_the_texels_it_crosses():
             d, q, _b = point_triangle(suv[si, k] * res, tri)
             assert d > 0
             np.testing.assert_allclose(s.positions[si, k, :2] * res, q, atol=1e-9)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_bands_and_threads_do_not_change_the_result(monkeypatch, threads):
+    from prt_addon.core.transfer import texels
+
+    uv, pos, nrm = random_layout(40, 6, 24)
+    uv = np.concatenate([uv, uv[:5] + 0.01])  # some overlaps too
+    pos, nrm = np.concatenate([pos, pos[:5]]), np.concatenate([nrm, nrm[:5]])
+    whole = texel_samples(uv, pos, nrm, 24, threads=1)
+    monkeypatch.setattr(texels, "BAND_PAIRS", 37)  # many bands, cut between rows
+    banded = texel_samples(uv, pos, nrm, 24, threads=threads)
+    assert whole.overlapping > 0
+    for name in ("texels", "triangles", "barycentrics", "positions", "normals"):
+        np.testing.assert_array_equal(getattr(banded, name), getattr(whole, name))
+    assert (banded.overlapping, banded.outside, banded.degenerate) == (
+        whole.overlapping,
+        whole.outside,
+        whole.degenerate,
+    )

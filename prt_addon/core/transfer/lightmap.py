@@ -14,7 +14,7 @@ import numpy.typing as npt
 
 NEIGHBOURS = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx]
 SEAM_WEIGHT = 10.0  # weight of the seam term against the data term of a covered texel
-GUTTER_WEIGHT = 0.1  # data weight of an uncovered (gutter) texel: it is free to meet the seam
+GUTTER_WEIGHT = 0.3  # data weight of an uncovered (gutter) texel: freer to meet the seam
 SAMPLES_PER_TEXEL = 2  # seam samples per texel of edge length (the longer side)
 SMOOTH_TOLERANCE = 1e-3  # corner normals (unit) within this in every component: a smooth edge
 CG_ITERATIONS = 100

@@ -12,6 +12,7 @@ triangle's edges in position space (r: the inradius). docs/texels.md.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,6 +53,12 @@ class TexelSamples:
         mask = np.zeros(self.resolution * self.resolution, dtype=bool)
         mask[self.texels] = True
         return mask.reshape(self.resolution, self.resolution)
+
+    def average(self, values: npt.ArrayLike) -> np.ndarray:
+        """(P, C) texel values, the mean over its S samples of values (S P, C) given in the order
+        of positions.reshape(-1, 3) (sample-major: all texels' sample 0, then sample 1, ...)."""
+        v = np.asarray(values, dtype=np.float64)
+        return v.reshape(len(self.triangles), self.count, -1).mean(axis=0)
 
     def image(self, values: npt.ArrayLike, fill: float = 0.0) -> np.ndarray:
         """(res, res, C) float image with values (P, C) (or (P,)) at the covered texels."""
@@ -121,9 +128,12 @@ def texel_samples(
     offsets: npt.ArrayLike = SAMPLE_OFFSETS,
     inset: float = 0.0,
     inset_fraction: float = INSET_FRACTION,
+    threads: int = 1,
 ) -> TexelSamples:
     """uvs (T, 3, 2), positions (T, 3, 3), normals (T, 3, 3) per triangle corner (smooth where the
-    mesh is smooth: the caller passes corner normals). See the module docstring."""
+    mesh is smooth: the caller passes corner normals). See the module docstring. threads > 1
+    resolves bands of rows on that many threads (no gain was measured on the 2-core test machine
+    under load: the work is bound by memory)."""
     res = int(resolution)
     if res < 1:
         raise ValueError("resolution must be at least 1")
@@ -172,7 +182,8 @@ def texel_samples(
     tri, row, c0, c1, start = tri[order], row[order], c0[order], c1[order], start[order]
     end = row * (res + 1) + c1 + 1
     before = np.concatenate([[-1], np.maximum.accumulate(end)[:-1]]) if len(end) else end
-    covered_total = int(np.maximum(end - np.maximum(start, before), 0).sum())
+    new_texels = np.maximum(end - np.maximum(start, before), 0)
+    covered_total = int(new_texels.sum())
 
     count_s = len(off)
     out = TexelSamples(
@@ -193,14 +204,24 @@ def texel_samples(
     bounds = np.searchsorted(done_pairs, np.arange(BAND_PAIRS, int(done_pairs[-1]) if len(width) else 0, BAND_PAIRS))
     # Cut only between rows, so that no texel is split across bands.
     cuts = np.unique(np.concatenate([[0], np.searchsorted(row, row[np.minimum(bounds, len(row) - 1)]), [len(row)]]))
-    filled = 0
-    for a, b in zip(cuts[:-1], cuts[1:]):
+    # Each band's first texel: the texels new in the spans before it.
+    first_texel = np.concatenate([[0], np.cumsum(new_texels)])
+
+    def band(a, b):
         w = width[a:b]
         first = np.repeat(np.cumsum(w) - w, w)
         col = np.repeat(c0[a:b], w) + np.arange(len(first)) - first
         key = np.sort((np.repeat(row[a:b], w) * res + col) * count_t + np.repeat(tri[a:b], w))
-        filled = _resolve_band(key, count_t, res, tables, out, filled)
-    assert filled == covered_total
+        return _resolve_band(key, count_t, res, tables, out, int(first_texel[a]))
+
+    pairs = list(zip(cuts[:-1], cuts[1:]))
+    if threads > 1 and len(pairs) > 1:  # numpy releases the GIL; bands write disjoint slices
+        with ThreadPoolExecutor(max_workers=int(threads)) as pool:
+            results = list(pool.map(lambda ab: band(*ab), pairs))
+    else:
+        results = [band(a, b) for a, b in pairs]
+    out.overlapping = sum(r[1] for r in results)
+    assert all(r[0] == first_texel[b] for r, (_a, b) in zip(results, pairs))
     return out
 
 
@@ -224,7 +245,8 @@ class _Tables:
 
 def _resolve_band(key, count_t, res, tb, out, filled):
     """The samples of the texels of one band of rows, from its sorted (texel, triangle) keys,
-    written into `out` from texel `filled` on; returns the new count of texels written."""
+    written into `out` from texel `filled` on; returns (the end of its texels, its overlapping
+    texels)."""
     pair_texel = key // count_t
     pair_tri = key - pair_texel * count_t
     n = len(key)
@@ -242,6 +264,7 @@ def _resolve_band(key, count_t, res, tb, out, filled):
     b2 = i4[2] * dx + i4[3] * dy
     b0 = 1.0 - b1 - b2
     winner = np.broadcast_to(starts, (count_s, g)).copy()
+    overlapping = 0
     if g < n:
         # Texels shared by several triangles: the first containing a sample owns it, else the
         # nearest (in UV) gets it snapped.
@@ -261,7 +284,7 @@ def _resolve_band(key, count_t, res, tb, out, filled):
         index = np.where(score == best[:, sub_group], pairs[None, :], n)
         winner[:, shared] = np.minimum.reduceat(index, sub_starts, axis=1)
         strict = (sub_low > STRICT_EPS).astype(np.int32)
-        out.overlapping += int((np.add.reduceat(strict, sub_starts, axis=1) >= 2).any(axis=0).sum())
+        overlapping = int((np.add.reduceat(strict, sub_starts, axis=1) >= 2).any(axis=0).sum())
     sl = slice(filled, filled + g)
     bary = np.empty((count_s, g, 3))  # contiguous (einsum is ~3x slower into strided views)
     if g == n:
@@ -294,4 +317,4 @@ def _resolve_band(key, count_t, res, tb, out, filled):
         length[flat] = np.sqrt(np.einsum("ki,ki->k", nn[flat], nn[flat]))
     nn /= np.where(length > 0, length, 1.0)[..., None]
     out.normals[:, sl] = nn
-    return filled + g
+    return filled + g, overlapping
