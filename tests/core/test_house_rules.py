@@ -1,7 +1,9 @@
-"""The house rules as tests: module size, one opening line, a core without Blender, the layers' imports."""
+"""The house rules as tests: module size, one opening line, a core without Blender, the layers' imports, the test lanes."""
 
 import ast
+import collections
 import pathlib
+import re
 
 import pytest
 
@@ -115,6 +117,58 @@ def test_no_reexport_shims():
     assert not shims, shims
 
 
+TESTS = ROOT / "tests"
+# The lane folders and the markers each gives (tests/conftest.py, LANES).
+LANE_MARKS = {
+    "core": (),
+    "blender": ("blender",),
+    "cycles": ("blender", "cycles"),
+    "gpu": ("blender", "gpu"),
+    "browser": ("blender", "browser"),
+}
+# An import of a test module or of a conftest, as code or as the text of code run in a subprocess.
+TEST_MODULE_IMPORT = re.compile(r"^\s*(?:from|import)\s+(?:[\w.]*\.)?(?:test_\w+|conftest)\b", re.M)
+
+
+def _test_modules():
+    return sorted(p for p in TESTS.rglob("test_*.py") if "node_modules" not in p.parts)
+
+
+def test_no_test_module_imports_another():
+    """Shared code lives in tests/helpers/ (fixtures through pytest_plugins): a test module that
+    imports another works only under one import mode and drags in its fixtures by name."""
+    found = [
+        f"{p.relative_to(ROOT)}:{text.count(chr(10), 0, m.start()) + 1}: {m.group(0).strip()}"
+        for p in sorted(TESTS.rglob("*.py"))
+        for text in [p.read_text()]
+        for m in TEST_MODULE_IMPORT.finditer(text)
+    ]
+    assert not found, found
+
+
+def test_each_test_module_is_in_a_lane_folder_under_a_unique_name():
+    """tests/<lane>/test_*.py only (the folder gives the markers), and no two with the same file
+    name: pytest's default import mode imports each as a top-level module of that name."""
+    outside = [
+        str(p.relative_to(ROOT)) for p in _test_modules() if p.parent.parent != TESTS or p.parent.name not in LANE_MARKS
+    ]
+    assert not outside, f"test modules outside tests/{{{','.join(LANE_MARKS)}}}/: {outside}"
+    names = collections.Counter(p.name for p in _test_modules())
+    assert not [n for n, c in names.items() if c > 1], names.most_common(3)
+
+
+def test_no_lane_marker_that_the_folder_gives_is_written_by_hand():
+    written = [
+        f"{p.relative_to(ROOT)}:{i + 1}"
+        for p in _test_modules()
+        if p.parent.name in LANE_MARKS
+        for i, line in enumerate(p.read_text().splitlines())
+        for mark in LANE_MARKS[p.parent.name]
+        if f"pytest.mark.{mark}" in line
+    ]
+    assert not written, written
+
+
 def test_these_rules_see_a_breach():
     """The checks above find what they look for (a rule that cannot fail is no rule)."""
     sample = ROOT / "prt_addon" / "core" / "sh" / "basis.py"
@@ -122,3 +176,8 @@ def test_these_rules_see_a_breach():
     relative = ROOT / "prt_addon" / "blender" / "scene" / "lighting.py"
     names = {name for name, _ in _imports(relative)}
     assert "prt_addon.blender.display.redraw.tag_redraw" in names  # relative imports resolved
+    breaches = (
+        "from test_display import add_camera\n    from tests.core.test_raytrace import wavy_grid\nimport conftest\n"
+    )
+    assert len(TEST_MODULE_IMPORT.findall(breaches)) == 3
+    assert not TEST_MODULE_IMPORT.findall("from helpers.worlds import new_world\nimport pytest\n")
