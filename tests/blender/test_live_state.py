@@ -152,7 +152,7 @@ def test_panel_and_api_share_the_samples_minimum(bpy_module, empty_scene):
     prop = empty_scene.prt_bake.bl_rna.properties["samples"]
     assert prop.hard_min == bake_settings.MIN_SAMPLES
     bake_settings.BakeSettings(samples=bake_settings.MIN_SAMPLES).validate()
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=rf"samples must be an integer >= {bake_settings.MIN_SAMPLES}, got 1"):
         bake_settings.BakeSettings(samples=bake_settings.MIN_SAMPLES - 1).validate()
 
 

@@ -82,9 +82,9 @@ def test_inward_tangent_of_a_flat_box_side_ignores_the_bottom_face():
 def test_inward_tangents_validate_their_input():
     verts, tris = grid_mesh(2, 2, (0, 0, 0), (1, 0, 0), (0, 1, 0))
     normals = np.tile([0, 0, 1.0], (len(verts), 1))
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="point_vertex must give one vertex per point"):
         transfer.inward_tangents(verts[:2], normals[:2], verts, tris, [0])
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="point_vertex out of range"):
         transfer.inward_tangents(verts[:1], normals[:1], verts, tris, [len(verts)])
     assert np.array_equal(transfer.inward_tangents(verts, normals, verts, tris[:0]), np.zeros((len(verts), 3)))
 

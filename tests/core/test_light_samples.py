@@ -48,7 +48,7 @@ def test_region_samples_split_the_power_evenly_inside_the_region():
     few, few_w = light_samples.region_samples(dirs[:5] * weights[:5, None], weights[:5], 16)
     assert len(few) == 5  # one sample per texel when there are fewer texels than samples
     np.testing.assert_allclose(np.sort(few_w), np.sort(weights[:5] / weights[:5].sum()), rtol=1e-12)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="a light's region has no power"):
         light_samples.region_samples(dirs[:3], np.zeros(3))
 
 
@@ -107,17 +107,25 @@ def test_samples_round_trip_and_old_storage_loads_as_discs(wide_image):
     assert all(light.samples is None and light.weights is None for light in old)
     mixed = light_samples.samples_to_array([found[0], old[1]])
     assert lights.lights_from_array(values, mixed)[1].samples is None
-    for bad in (samples[:-1], samples + [0.0], [1.5] + samples[1:], [np.nan] * len(samples)):
-        with pytest.raises(ValueError):
+    for bad, message in (
+        (samples[:-1], "stored light samples are truncated"),
+        (samples + [0.0], "stored light samples hold more values than their lights"),
+        ([1.5] + samples[1:], "stored light samples: a count is missing or not a whole number"),
+        ([np.nan] * len(samples), "stored light samples must be finite"),
+    ):
+        with pytest.raises(ValueError, match=message):
             lights.lights_from_array(values, bad)
-    for index in (1, 5):  # the first light's shadow angle, its first sample's weight
+    for index, message in (  # the first light's shadow angle, its first sample's weight
+        (1, "stored light samples: a shadow angle is missing or negative"),
+        (5, "a stored light sample has a zero direction or a negative weight"),
+    ):
         negative = list(samples)
         negative[index] = -1.0
-        with pytest.raises(ValueError):
+        with pytest.raises(ValueError, match=message):
             lights.lights_from_array(values, negative)
     assert [b.shadow_angle for b in back] == pytest.approx([light_samples.shadow_angle(a) for a in found], rel=1e-14)
     assert [light_samples.shadow_angle(b) for b in old] == [b.angle for b in old]
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="samples must be an integer >= 0, got -1"):
         lights.extract_lights(wide_image, samples=-1)
 
 

@@ -223,7 +223,8 @@ def test_min_share_drops_negligible_regions_into_the_residual():
     ],
 )
 def test_bad_arguments_raise_value_error(kwargs):
-    with pytest.raises(ValueError):
+    (name,) = kwargs
+    with pytest.raises(ValueError, match=f"^{name} must be"):
         lights.extract_lights(np.ones((8, 16, 3), np.float32), **kwargs)
 
 
@@ -270,7 +271,7 @@ def test_lights_array_round_trip(sun_image):
         assert a.angle == b.angle
     assert lights.lights_from_array([]) == []
     assert lights.lights_to_array([]) == []
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=r"stored lights must be finite, 7 floats per light \(got 6 values\)"):
         lights.lights_from_array(values[:-1])
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=r"stored lights must be finite, 7 floats per light \(got 7 values\)"):
         lights.lights_from_array([np.nan] * 7)

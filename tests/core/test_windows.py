@@ -152,6 +152,20 @@ def test_laplacian_closed_form_and_monotone():
     assert ((ws > 0) & (ws <= 1)).all()
 
 
+# What window_weights says for each bad (kind, repr(param)) of test_bad_kind_or_param_raises.
+BAD_WINDOW_MESSAGES = {
+    ("GAUSS", "None"): r"window kind must be one of NONE, HANNING, LANCZOS, LAPLACIAN \(got 'GAUSS'\)",
+    (None, "None"): r"window kind must be one of NONE, HANNING, LANCZOS, LAPLACIAN \(got None\)",
+    ("HANNING", "0.0"): r"width must be > 0 \(got 0.0\)",
+    ("HANNING", "-1.0"): r"width must be > 0 \(got -1.0\)",
+    ("LANCZOS", "nan"): "width must not be NaN",
+    ("LANCZOS", "'wide'"): r"width must be a real number \(got 'wide'\)",
+    ("LAPLACIAN", "None"): r"the LAPLACIAN window needs lambda \(>= 0\); there is no data-independent default",
+    ("LAPLACIAN", "-0.1"): r"lambda must be finite and >= 0 \(got -0.1\)",
+    ("LAPLACIAN", "inf"): r"lambda must be finite and >= 0 \(got inf\)",
+}
+
+
 @pytest.mark.parametrize(
     ("kind", "param"),
     [
@@ -167,7 +181,7 @@ def test_laplacian_closed_form_and_monotone():
     ],
 )
 def test_bad_kind_or_param_raises(kind, param):
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=BAD_WINDOW_MESSAGES[kind, repr(param)]):
         window_weights(kind, 4, param)
 
 
@@ -193,9 +207,9 @@ def test_apply_window_scales_band_by_band(shape_tail):
 
 
 def test_apply_window_rejects_mismatched_weights():
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=r"weights must have shape \(4,\) for order 4, got \(3,\)"):
         apply_window(np.ones(16), np.ones(3))
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=r"15 coefficients is not a square number \(order\*\*2\)"):
         apply_window(np.ones(15), np.ones(4))
 
 
@@ -376,7 +390,7 @@ def test_infeasible_input_raises():
     zero_mean[0] = 0.0
     with pytest.raises(ValueError, match=r"channel\(s\) \[1\]"):
         auto_window(np.stack([c, zero_mean], axis=1), "HANNING")
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=r"window kind must be one of HANNING, LANCZOS, LAPLACIAN \(got 'NONE'\)"):
         auto_window(c, "NONE")
     # an all-zero channel is identically 0 >= 0: accepted, the other channel decides
     both = auto_window(np.stack([c, np.zeros_like(c)], axis=1), "LAPLACIAN")
