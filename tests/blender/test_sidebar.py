@@ -12,8 +12,16 @@ def test_presets_set_order_and_samples_and_custom_is_recognised(bpy_module, empt
         assert preset_of(settings.order, settings.samples) == key
     empty_scene.prt_bake.samples = 300
     assert preset_of(empty_scene.prt_bake.order, empty_scene.prt_bake.samples) == "CUSTOM"
-    # The API keeps its own arguments: the default bake is the "Good" preset.
-    assert PRESETS["GOOD"][2:] == (4, 256)
+    # The API keeps its own arguments: its default bake is the "Good" preset, as is a new scene's
+    # Bake panel (the properties' defaults).
+    import inspect
+
+    from prt_addon import api
+
+    parameters = inspect.signature(api.bake).parameters
+    assert preset_of(parameters["order"].default, parameters["samples"].default) == "GOOD"
+    properties = empty_scene.prt_bake.bl_rna.properties
+    assert preset_of(properties["order"].default, properties["samples"].default) == "GOOD"
 
 
 def test_result_line_and_report_speak_plainly_and_fit(bpy_module):
@@ -44,8 +52,6 @@ def test_result_line_and_report_speak_plainly_and_fit(bpy_module):
 
 
 def test_long_labels_wrap_to_the_region_width(bpy_module):
-    import textwrap
-
     from prt_addon.blender.ui import sidebar
 
     class Region:
@@ -57,7 +63,11 @@ def test_long_labels_wrap_to_the_region_width(bpy_module):
     width = sidebar.line_width(Context())
     assert 20 <= width <= 40
     text = "Fast ray tracing (Embree) is not available here: baking is about 30 to 40 times slower"
-    assert all(len(line) <= width for line in textwrap.wrap(text, width))
+    log = []
+    sidebar.wrapped_label(RecordingLayout(log), Context(), text)
+    lines = [entry[1] for entry in log]
+    assert len(lines) > 1 and " ".join(lines) == text
+    assert all(len(line) <= width for line in lines)
 
 
 class RecordingLayout:
@@ -105,4 +115,5 @@ def test_world_panel_reads_auto_threshold_and_display_panel_has_no_view_warning(
     assert ("prop", "light_threshold", None) in log
     empty_scene.view_settings.view_transform = "AgX"
     log = draw_panel(panels.VIEW3D_PT_prt_display, empty_scene)
+    assert log, "the Display panel drew nothing"
     assert not any("view transform" in str(entry).lower() or "Standard" in str(entry) for entry in log), log
