@@ -100,7 +100,8 @@ def samples_from_array(values: npt.ArrayLike, lights: int) -> list[tuple[np.ndar
     values = np.asarray(values, dtype=np.float64).ravel()
     if not np.all(np.isfinite(values)):
         raise ValueError("stored light samples must be finite")
-    out, at = [], 0
+    out: list[tuple[np.ndarray, np.ndarray, float] | None] = []
+    at = 0
     for _ in range(lights):
         if at >= values.size or values[at] != int(values[at]) or values[at] < 0:
             raise ValueError("stored light samples: a count is missing or not a whole number")
