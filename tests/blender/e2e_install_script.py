@@ -1,6 +1,6 @@
 """Run in a fresh interpreter with BLENDER_USER_RESOURCES set: install the zip as a user would.
 
-    python tests/e2e_install_script.py ZIP RESULT_JSON [embree|no-embree]
+    python tests/blender/e2e_install_script.py ZIP RESULT_JSON [embree|no-embree]
 
 Installs the zip with Blender's extension installer, enables it, uses it (projects a world with a
 bundled HDRI, bakes a sphere on a plane, shades it, rotates the lighting), disables and removes

@@ -1,8 +1,9 @@
-"""Bad input, as a user would give it: the snapshot helpers, the baked scene, and what is selected to bake.
+"""Bad input, as a user would give it: what is selected to bake.
 
 Every case ends in a clear message in Blender's report and leaves the .blend exactly as it was;
 test_bad_input_bake.py (bake settings, a running bake) and test_bad_input_world.py (the world,
-the display) use the helpers and fixtures defined here.
+the display) use the same snapshot helpers (tests/helpers/bad_input.py) and baked scene (the
+`scene` fixture, tests/helpers/fixtures_bake.py).
 
 Operators run through bpy.ops. In background mode an operator that reports ERROR and returns
 CANCELLED makes bpy.ops raise RuntimeError("Error: <message>"), and a failed poll raises

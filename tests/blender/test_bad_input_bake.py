@@ -2,7 +2,7 @@
 
 Each case ends in a clear message and leaves the .blend exactly as it was (the snapshot helpers and
 the baked scene are in test_bad_input.py). The modal bake is driven with a stand-in for the
-operator instance, as in tests/test_bake_job.py.
+operator instance, as in tests/blender/test_bake_job.py.
 """
 
 import types

@@ -1,6 +1,7 @@
 """The transfer bake through the operator and the API: storage, per-vertex or per-corner points, values, scale.
 
-The fixtures and scene helpers here are shared by test_bake_job.py (backends, the modal path,
+Its fixtures (bake_ops, mesh_io: tests/helpers/fixtures_bake.py) and scene helpers
+(tests/helpers/bake_scenes.py) are shared with test_bake_job.py (backends, the modal path,
 threads, failure safety) and test_bake_status.py (staleness, refusals).
 """
 

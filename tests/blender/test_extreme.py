@@ -1,7 +1,7 @@
 """Extreme inputs through the public API: order 1 to the largest, black and Inf HDRIs, the error estimate.
 
 Each gives a finite, correct result or a clear report, and nothing crashes. Extreme meshes are in
-tests/test_extreme_meshes.py, which uses the scene helpers here; cases already covered elsewhere
+tests/blender/test_extreme_meshes.py (the scene helpers of both: tests/helpers/meshes.py); cases already covered elsewhere
 are listed in docs/extreme.md.
 
 Radiance checks use a constant white world (L = 1 everywhere): E / pi at a point is then the

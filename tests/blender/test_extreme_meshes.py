@@ -1,7 +1,7 @@
 """Extreme meshes through the public API: one triangle, degenerate faces, NaN, tiny to huge, overlaps, 1M vertices.
 
 Each gives a finite, correct result or a clear report, and nothing crashes. Radiance checks use
-the constant white world of tests/test_extreme.py (shade_white): E / pi is the visible
+the constant white world of tests/helpers/meshes.py (shade_white): E / pi is the visible
 cosine-weighted fraction of the sky, exactly 1 for a point nothing occludes.
 """
 

@@ -3,8 +3,8 @@
 Expectations are independent of the code under test where possible: exact constants, analytic
 integrals over half spheres, pixel-exact column shifts for 90-degree turns, and images synthesised
 from known coefficients. The Mapping convention (world seen along D = image(R D) for POINT, VECTOR
-and NORMAL, image(R^-1 D) for TEXTURE) was measured with Cycles; tests/test_world_cycles.py checks
-it against Cycles again. Image formats, bad input, memory and storage: tests/test_world_images.py.
+and NORMAL, image(R^-1 D) for TEXTURE) was measured with Cycles; tests/cycles/test_world_cycles.py checks
+it against Cycles again. Image formats, bad input, memory and storage: tests/blender/test_world_images.py.
 """
 
 import math

@@ -7,7 +7,7 @@ moves each origin by `offset` into the point's own surface (transfer.inward_tang
 on the side of the ground where the box is (docs/bake.md, "Contacts").
 
 This module holds the pure numpy part (the inward tangents and the origins) and the mesh helpers;
-the scenes in Blender, against Cycles, are in tests/test_contact_cycles.py.
+the scenes in Blender, against Cycles, are in tests/cycles/test_contact_cycles.py.
 """
 
 import numpy as np

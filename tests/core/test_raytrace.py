@@ -109,7 +109,7 @@ def run_python(code):
 
 def blender_embrees():
     """bpy's own libembree4 in each of this checkout's venvs (looked up when the test runs: the
-    venvs of bpy 4.2 and 4.5 are made by tests/test_install.py, earlier in the same run)."""
+    venvs of bpy 4.2 and 4.5 are made by tests/blender/test_install.py, earlier in the same run)."""
     return sorted(
         glob.glob(os.path.join(ROOT, ".venv*", "lib", "python3*", "site-packages", "bpy", "lib", "libembree4.so*"))
     )

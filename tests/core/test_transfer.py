@@ -1,6 +1,6 @@
 """Transfer projection (prt_addon.core.transfer.quadrature) against closed forms: values, error estimate, local frame.
 
-The analytic occluders here (plane, wall, cup) serve tests/test_transfer_tracing.py too.
+The analytic occluders (plane, cup) are in tests/helpers/occluders.py, shared with tests/core/test_transfer_tracing.py.
 Pure numpy (+ embreex when installed), no bpy."""
 
 import numpy as np

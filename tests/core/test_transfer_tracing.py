@@ -1,6 +1,6 @@
 """Which rays the transfer traces and how: culling, chunks and threads, cancel, memory, occlusion shortcuts.
 
-Pure numpy, no bpy; the analytic occluders come from tests/test_transfer.py."""
+Pure numpy, no bpy; the analytic occluders come from tests/helpers/occluders.py."""
 
 import tracemalloc
 

@@ -1,6 +1,6 @@
 """Projected world lighting against Cycles. This is what catches a mirrored or half-turned
 lighting, so it is never skipped when bpy is available. The light split is off here: these
-tests measure the SH projection of the whole world (tests/test_light_split.py tests the split).
+tests measure the SH projection of the whole world (tests/blender/test_light_split.py tests the split).
 
 An unoccluded convex object (a 32x16 smooth UV sphere, radius 1, at the origin) is baked by Cycles:
 DIFFUSE / DIRECT to a FLOAT_COLOR POINT attribute gives E/pi per vertex (white albedo, irradiance

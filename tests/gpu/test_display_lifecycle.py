@@ -1,6 +1,6 @@
 """Live PRT display over a session: deformed meshes, the draw callback, handler cleanup, save/reload, PNGs.
 
-Needs the GPU initialised headless; helpers and the lit_scene fixture come from test_display.py.
+Needs the GPU initialised headless; helpers come from tests/helpers/display_scenes.py, the lit_scene fixture from tests/helpers/fixtures_display.py.
 """
 
 import numpy as np

@@ -1,6 +1,6 @@
 """Live PRT display under rotation: the lighting, a world Mapping node, the object, and the projected world.
 
-Needs the GPU initialised headless; helpers and the lit_scene fixture come from test_display.py.
+Needs the GPU initialised headless; helpers come from tests/helpers/display_scenes.py, the lit_scene fixture from tests/helpers/fixtures_display.py.
 """
 
 import math

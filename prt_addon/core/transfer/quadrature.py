@@ -66,7 +66,7 @@ SLICES_PER_THREAD = 4  # slices per step() and thread
 # reused across slices, weight f64 (8), horizon mask (1), directions (16), hit indices (8); per
 # traced ray, the flat indices (8), origins (16), Embree's int32 result and the hit mask (5); the
 # tiled directions table (16, shared by the threads). Checked with tracemalloc in
-# tests/test_transfer_tracing.py.
+# tests/core/test_transfer_tracing.py.
 RAY_BYTES = 80
 
 
