@@ -1,4 +1,4 @@
-"""Contact scenes in pure numpy: the shared direction set, meshes merged, Embree when there, a unit world's radiance."""
+"""Contact scenes: the shared direction set, meshes merged, Embree when there, a unit world's radiance (numpy); walls, grids and their bake in Blender (bpy passed in)."""
 
 import numpy as np
 import pytest

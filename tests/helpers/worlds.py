@@ -1,4 +1,4 @@
-"""Worlds for the tests: Blender's bundled HDRIs."""
+"""Worlds for the tests: Blender's bundled HDRIs, worlds of known SH coefficients or images, a Mapping node, sunny images (bpy passed in or imported when called)."""
 
 import math
 import os
