@@ -152,36 +152,24 @@ def test_laplacian_closed_form_and_monotone():
     assert ((ws > 0) & (ws <= 1)).all()
 
 
-# What window_weights says for each bad (kind, repr(param)) of test_bad_kind_or_param_raises.
-BAD_WINDOW_MESSAGES = {
-    ("GAUSS", "None"): r"window kind must be one of NONE, HANNING, LANCZOS, LAPLACIAN \(got 'GAUSS'\)",
-    (None, "None"): r"window kind must be one of NONE, HANNING, LANCZOS, LAPLACIAN \(got None\)",
-    ("HANNING", "0.0"): r"width must be > 0 \(got 0.0\)",
-    ("HANNING", "-1.0"): r"width must be > 0 \(got -1.0\)",
-    ("LANCZOS", "nan"): "width must not be NaN",
-    ("LANCZOS", "'wide'"): r"width must be a real number \(got 'wide'\)",
-    ("LAPLACIAN", "None"): r"the LAPLACIAN window needs lambda \(>= 0\); there is no data-independent default",
-    ("LAPLACIAN", "-0.1"): r"lambda must be finite and >= 0 \(got -0.1\)",
-    ("LAPLACIAN", "inf"): r"lambda must be finite and >= 0 \(got inf\)",
-}
+# (kind, param, what window_weights says) of test_bad_kind_or_param_raises.
+BAD_WINDOWS = [
+    ("GAUSS", None, r"window kind must be one of NONE, HANNING, LANCZOS, LAPLACIAN \(got 'GAUSS'\)"),
+    (None, None, r"window kind must be one of NONE, HANNING, LANCZOS, LAPLACIAN \(got None\)"),
+    ("HANNING", 0.0, r"width must be > 0 \(got 0.0\)"),
+    ("HANNING", -1.0, r"width must be > 0 \(got -1.0\)"),
+    ("LANCZOS", float("nan"), "width must not be NaN"),
+    ("LANCZOS", "wide", r"width must be a real number \(got 'wide'\)"),
+    ("LAPLACIAN", None, r"the LAPLACIAN window needs lambda \(>= 0\); there is no data-independent default"),
+    ("LAPLACIAN", -0.1, r"lambda must be finite and >= 0 \(got -0.1\)"),
+    ("LAPLACIAN", math.inf, r"lambda must be finite and >= 0 \(got inf\)"),
+]
 
 
-@pytest.mark.parametrize(
-    ("kind", "param"),
-    [
-        ("GAUSS", None),
-        (None, None),
-        ("HANNING", 0.0),
-        ("HANNING", -1.0),
-        ("LANCZOS", float("nan")),
-        ("LANCZOS", "wide"),
-        ("LAPLACIAN", None),  # lambda is required
-        ("LAPLACIAN", -0.1),
-        ("LAPLACIAN", math.inf),
-    ],
-)
+@pytest.mark.parametrize(("kind", "param"), [case[:2] for case in BAD_WINDOWS])
 def test_bad_kind_or_param_raises(kind, param):
-    with pytest.raises(ValueError, match=BAD_WINDOW_MESSAGES[kind, repr(param)]):
+    message = next(m for k, p, m in BAD_WINDOWS if k == kind and p is param)
+    with pytest.raises(ValueError, match=message):
         window_weights(kind, 4, param)
 
 
