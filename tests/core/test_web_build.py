@@ -15,8 +15,6 @@ from helpers.web import (
 from prt_addon.core.sh import basis as sh, frames, rotation
 
 SH_ROTATION_JS = os.path.join(ROOT, "web", "src", "sh_rotation.js")
-
-
 NODE_ROTATION = """
 import { rotationMatrix, frameRotation, lightInLocalFrame } from %s;
 import fs from 'node:fs';

@@ -5,11 +5,7 @@ import numpy as np
 from helpers.display_scenes import clamped_cosine_rows, write_bake
 
 SKY = np.array([0.2, 0.3, 0.5])
-
-
 POWER = np.array([3.0, 2.5, 2.0])
-
-
 SIZE = 256
 
 

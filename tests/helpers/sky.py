@@ -48,8 +48,6 @@ def cap_solid_angle(radius):
 
 
 SUN = unit(30.0, 20.0)
-
-
 RADIUS = np.radians(2.0)
 
 

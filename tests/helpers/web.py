@@ -18,11 +18,7 @@ from helpers.shadow_scenes import cap_light
 # differs are pixels on silhouettes and shadow edges, where two rasterisers (llvmpipe,
 # SwiftShader) round differently.
 MEAN_TOLERANCE = 0.003
-
-
 P99_TOLERANCE = 0.02
-
-
 COVERAGE_TOLERANCE = 0.001  # fraction of pixels drawn by one and not the other
 
 
