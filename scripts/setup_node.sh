@@ -2,7 +2,7 @@
 # Install the node packages of the tests and the web viewer into build/node (or $1): the Khronos
 # glTF validator, three.js, esbuild (bundles the viewer), puppeteer-core (drives Chromium in
 # the viewer's test) and Babylon.js (core and glTF loaders: the reference loader of the export's
-# EXT_lights_image_based, tests/test_babylon_ibl.py). Idempotent: when everything is in place it only checks, in well under 1 s.
+# EXT_lights_image_based, tests/browser/test_babylon_ibl.py). Idempotent: when everything is in place it only checks, in well under 1 s.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 dest="${1:-$here/build/node}"

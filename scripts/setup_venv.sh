@@ -2,10 +2,17 @@
 # Creates ./.venv (ignored by git) with the pinned dependencies of requirements-dev.txt, and the
 # Debian libraries that the bpy module loads (X11/GL client libraries, Mesa's software renderer
 # for the headless GPU tests). Idempotent: when everything is in place it only checks, in ~1 s.
+# A changed requirements-dev.txt is installed into the existing venv (pip installs only what is
+# missing or pinned at another version): adding a pin never rebuilds the venv and its 370 MB bpy.
+# The venv is created only when its Python is missing.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 venv="$root/.venv"
-stamp="$venv/.requirements.sha256"
+# The hash of the requirements last installed by this script. (.requirements.sha256 was the
+# stamp of earlier versions, which rebuilt the venv when it differed: it is read, never written,
+# so that a venv shared with an older checkout is never rebuilt by that checkout.)
+stamp="$venv/.requirements-installed.sha256"
+legacy_stamp="$venv/.requirements.sha256"
 want=$(sha256sum "$root/requirements-dev.txt" | cut -d' ' -f1)
 
 as_root() { if [ "$(id -u)" = 0 ]; then "$@"; elif command -v sudo >/dev/null; then sudo "$@"; else return 1; fi; }
@@ -37,13 +44,16 @@ if command -v dpkg-query >/dev/null; then
   [ ${#missing[@]} -eq 0 ] || apt_install "${missing[@]}"
 fi
 
-if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
+if [ ! -x "$venv/bin/python" ]; then
   if ! "$python" -m venv --help >/dev/null 2>&1 || ! "$python" -c 'import ensurepip' 2>/dev/null; then
     apt_install python3-venv
   fi
-  rm -rf "$venv"
   "$python" -m venv "$venv"
   "$venv/bin/python" -m pip install -q --upgrade pip
+fi
+installed=$(cat "$stamp" 2>/dev/null || cat "$legacy_stamp" 2>/dev/null || true)
+if [ "$installed" != "$want" ]; then
+  echo "setup: installing requirements-dev.txt into $venv (only what is missing or at another version)"
   "$venv/bin/python" -m pip install -q -r "$root/requirements-dev.txt"
   echo "$want" > "$stamp"
 fi

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The whole test suite in the project's own environment (created on first use): ruff's lint and
-# format check first (style fails fast), then pytest. Extra arguments go to pytest, e.g.
-# `bash scripts/test.sh tests/test_sh.py -k poles`, or the fast lane without Cycles and the GPU:
+# format check first (style fails fast), mypy on the core and the API, then pytest. Extra
+# arguments go to pytest, e.g. `bash scripts/test.sh tests/core/test_sh.py -k poles`; the lanes
+# are folders of tests/ (docs/architecture.md, "Tests"): the pure lane without bpy
+# `bash scripts/test.sh -m "not blender"`, the fast lane without Cycles and the GPU
 # `bash scripts/test.sh -m "not cycles and not gpu"`.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -9,4 +11,5 @@ bash "$root/scripts/setup_venv.sh"
 cd "$root"
 "$root/.venv/bin/ruff" check --quiet .
 "$root/.venv/bin/ruff" format --check --quiet .
+"$root/.venv/bin/mypy" --no-error-summary
 exec "$root/.venv/bin/python" -m pytest "$@"

@@ -1,149 +1,72 @@
-"""Shared fixtures. Core tests need only numpy; Blender-layer tests use the `bpy` module."""
+"""The test lanes: each test's markers come from its folder, shared fixtures from tests/helpers/.
+
+tests/core/ is pure numpy and never imports bpy (a guard below fails a core test that does, and a
+pure-lane run during whose collection bpy got imported); every other folder needs the bpy module
+and adds its own lane marker. Run `-m "not blender"` for the pure lane, `-m "not cycles and not
+gpu"` for the fast lane.
+"""
 
 import os
-import threading
-import time
+import pathlib
+import sys
 
-import numpy as np
 import pytest
 
+pytest.register_assert_rewrite("helpers")
 
-@pytest.fixture(scope="session")
-def bpy_module():
-    import bpy
+pytest_plugins = [
+    "helpers.collection",
+    "helpers.fixtures",
+    "helpers.fixtures_bake",
+    "helpers.fixtures_display",
+    "helpers.fixtures_web",
+]
 
-    return bpy
-
-
-@pytest.fixture(scope="session")
-def addon(bpy_module):
-    """The add-on registered once for the session (unregistered at the end)."""
-    import prt_addon
-
-    prt_addon.register()
-    yield prt_addon
-    prt_addon.unregister()
-
-
-@pytest.fixture
-def empty_scene(bpy_module, addon):
-    """Factory settings with no objects, no camera and no world; the add-on stays registered."""
-    bpy_module.ops.wm.read_factory_settings(use_empty=True)
-    # read_factory_settings unregisters nothing of ours, but make sure the scene property exists.
-    assert hasattr(bpy_module.types.Scene, "prt")
-    return bpy_module.context.scene
+# Folder under tests/ -> the markers its tests get. Tests outside every lane folder are taken to
+# need bpy (tests/core/test_house_rules.py asks for each test module to be in a lane folder).
+LANES = {
+    "core": (),
+    "blender": ("blender",),
+    "cycles": ("blender", "cycles"),
+    "gpu": ("blender", "gpu"),
+    "browser": ("blender", "browser"),
+}
+TESTS = pathlib.Path(__file__).resolve().parent
 
 
-@pytest.fixture(scope="module")
-def gpu_ready(bpy_module, addon):
-    """Initialise the GPU once for the module (a tiny Workbench render), before large meshes."""
-    from prt_addon.blender.display import offscreen
-
-    assert offscreen.ensure_gpu()
-    return True
-
-
-def cycles_vertex_bake(bpy, scene, objects, samples, passes=("DIRECT",), bounces=None):
-    """{object name: (V, 3)} E/pi per vertex (white albedo) from Cycles' DIFFUSE bake of the
-    objects alone, with `passes` and, when given, `bounces` diffuse bounces; the temporary colour
-    attribute is removed again."""
-    bpy.ops.object.select_all(action="DESELECT")
-    for obj in objects:
-        colours = obj.data.color_attributes
-        colours.active_color = colours.new("cycles", "FLOAT_COLOR", "POINT")
-        obj.select_set(True)
-    bpy.context.view_layer.objects.active = objects[0]
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = samples
-    scene.cycles.use_denoising = False
-    if bounces is not None:
-        scene.cycles.diffuse_bounces = bounces
-        scene.cycles.max_bounces = bounces + 4
-        scene.cycles.glossy_bounces = scene.cycles.transmission_bounces = 0
-    bpy.ops.object.bake(type="DIFFUSE", pass_filter=set(passes), target="VERTEX_COLORS", use_clear=True)
-    out = {}
-    for obj in objects:
-        colours = obj.data.color_attributes
-        values = np.empty(len(obj.data.vertices) * 4, np.float32)
-        colours["cycles"].data.foreach_get("color", values)
-        out[obj.name] = values.reshape(-1, 4)[:, :3].astype(np.float64)
-        colours.remove(colours["cycles"])
-    return out
+def lane_of(path):
+    """The lane folder of a test file ("core", "blender", ...), or None outside them."""
+    try:
+        folder = path.resolve().relative_to(TESTS).parts[0]
+    except (ValueError, IndexError):
+        return None
+    return folder if folder in LANES else None
 
 
-def bundled_hdri_path(name="forest"):
-    """Path of one of Blender's bundled studio-light HDRIs (1024x512 EXR, CC0)."""
-    import bpy
-
-    folder = bpy.utils.system_resource("DATAFILES", path="studiolights/world")
-    path = os.path.join(folder, f"{name}.exr")
-    assert os.path.isfile(path), path
-    return path
+def pytest_itemcollected(item):
+    for name in LANES.get(lane_of(item.path), ("blender",)):
+        item.add_marker(name)
 
 
-def random_directions(count, seed):
-    rng = np.random.default_rng(seed)
-    d = rng.normal(size=(count, 3))
-    return d / np.linalg.norm(d, axis=1, keepdims=True)
+def pytest_collection_finish(session):
+    """A run of core tests alone must not have imported bpy while collecting."""
+    pure = bool(session.items) and all(lane_of(item.path) == "core" for item in session.items)
+    session.config._prt_pure_run = pure
+    if pure and "bpy" in sys.modules:
+        raise pytest.UsageError(
+            "bpy was imported while collecting a run of core tests only: a module imports bpy (or the "
+            "Blender layer) at import time; do that inside a test or a fixture of a Blender lane"
+        )
 
 
-def other_threads_cpu_ticks():
-    """CPU clock ticks (user + system) used so far by this process's threads other than the
-    calling one, from /proc/self/task (Linux)."""
-    me = threading.get_native_id()
-    total = 0
-    for task in os.listdir("/proc/self/task"):
-        if int(task) == me:
-            continue
-        try:
-            with open(f"/proc/self/task/{task}/stat") as f:
-                fields = f.read().rsplit(")", 1)[1].split()
-        except OSError:  # the thread ended meanwhile
-            continue
-        total += int(fields[11]) + int(fields[12])  # utime, stime (fields 14 and 15 of stat)
-    return total
-
-
-def ticks_of_other_threads_after(call, window=0.15):
-    """Clock ticks (1/100 s) that other threads of this process use in the `window` seconds
-    after call() returns, while this thread sleeps: about 100 * window when a BLAS worker spins,
-    0 when nothing else runs. Counted per thread, so other processes loading the machine do not
-    blur it as a wall-clock measure would."""
-    time.sleep(0.3)  # let any worker from earlier calls go to sleep
-    call()
-    before = other_threads_cpu_ticks()
-    time.sleep(window)
-    return other_threads_cpu_ticks() - before
-
-
-def fake_event(event_type, value="PRESS"):
-    """A stand-in for bpy.types.Event, which Python cannot create: it has exactly the attributes
-    of a real Event (read from its RNA definition), so code that reads anything else fails here
-    as it does in Blender. An earlier stand-in had an invented `timer` attribute, which hid a
-    modal() that failed on the first timer event of every interactive bake."""
-    import types
-
-    import bpy
-
-    names = [n for n in bpy.types.Event.bl_rna.properties.keys() if n != "rna_type"]
-    event = types.SimpleNamespace(**{n: None for n in names})
-    event.type, event.value = event_type, value
-    return event
-
-
-class ModalStandIn:
-    """Stands in for a PRT_OT_bake_transfer instance driven through modal() (bpy as a module has
-    no window, so invoke() cannot start a real modal handler; Blender creates operator instances
-    only through bpy.ops). reports collects (set of kinds, message)."""
-
-    def __init__(self, bake_ops, job):
-        cls = bake_ops.PRT_OT_bake_transfer
-        self._bake, self._steps, self._timer, self.reports = job, job.steps(), None, []
-        self.report = lambda kind, msg: self.reports.append((set(kind), msg))
-        self._cleanup = lambda ctx: cls._cleanup(self, ctx)
-        self._fail = lambda ctx, exc: cls._fail(self, ctx, exc)
-        self.modal = lambda ctx, event: cls.modal(self, ctx, event)
+@pytest.fixture(autouse=True)
+def _core_imports_no_bpy(request):
+    """A core test that imports bpy (directly or through the Blender layer) fails here, in any run
+    where bpy was not imported before it."""
+    check = lane_of(request.node.path) == "core" and "bpy" not in sys.modules
+    yield
+    if check:
+        assert "bpy" not in sys.modules, f"{request.node.nodeid} imported bpy: core tests run without Blender"
 
 
 def pytest_unconfigure(config):

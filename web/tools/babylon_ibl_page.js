@@ -1,4 +1,4 @@
-// The page of tests/test_babylon_ibl.py: a .glb loaded by Babylon.js's glTF loader, its EXT_lights_image_based environment probed.
+// The page of tests/browser/test_babylon_ibl.py: a .glb loaded by Babylon.js's glTF loader, its EXT_lights_image_based environment probed.
 //
 // window.babylonProbe (bundled by babylon_ibl.mjs, run in headless Chromium):
 //   load(base64)         -> the loaded environment texture's figures and its shader's SH

@@ -1,7 +1,7 @@
 """EXT_lights_image_based in the .glb: the world's GGX-prefiltered cube map and its irradiance SH.
 
 Babylon.js's loader is the extension's reference, and these are its conventions (read from its
-source, checked in tests/test_babylon_ibl.py); docs/export.md is the contract:
+source, checked in tests/browser/test_babylon_ibl.py); docs/export.md is the contract:
 
 * Babylon's glTF root node turns glTF's right-handed frame into its left-handed world by
   (x, y, z) -> (-x, y, z), and samples the cube map (WebGL's convention, core.ibl.prefilter) with

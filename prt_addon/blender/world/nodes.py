@@ -4,7 +4,7 @@ One resolution of the node tree (`analyse_world`, through reroutes, muted nodes 
 used by the projection, the live rotation of the lighting, the display and the rotation control,
 so they all follow what Cycles shows.
 
-Measured against Cycles (tests/test_world_cycles.py): with a Mapping rotation R (Euler XYZ,
+Measured against Cycles (tests/cycles/test_world_cycles.py): with a Mapping rotation R (Euler XYZ,
 R = Rz Ry Rx), the world seen along D is image(R D) for vector types POINT, VECTOR and NORMAL and
 image(R^-1 D) for TEXTURE; so world coefficients = rotate(image coefficients, Q) with Q = R^T
 (POINT, VECTOR, NORMAL) or Q = R (TEXTURE), since rotate(c, Q) gives f(Q^-1 w).

@@ -121,13 +121,14 @@ def cube_from_function(function, size: int, supersample: int = 2) -> np.ndarray:
     points of each texel (evenly spread in face coordinates)."""
     size = check_size(size)
     fine = face_directions(size * supersample)  # a texel's sub-points are an ss x ss block
-    out = None
+    out: np.ndarray | None = None
     for k in range(6):
         values = np.asarray(function(fine[k]), dtype=np.float64)
         values = values.reshape(size, supersample, size, supersample, -1).mean(axis=(1, 3))
         if out is None:
             out = np.empty((6, *values.shape))
         out[k] = values
+    assert out is not None  # (six faces: set by the first)
     return out
 
 

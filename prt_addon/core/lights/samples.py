@@ -100,7 +100,8 @@ def samples_from_array(values: npt.ArrayLike, lights: int) -> list[tuple[np.ndar
     values = np.asarray(values, dtype=np.float64).ravel()
     if not np.all(np.isfinite(values)):
         raise ValueError("stored light samples must be finite")
-    out, at = [], 0
+    out: list[tuple[np.ndarray, np.ndarray, float] | None] = []
+    at = 0
     for _ in range(lights):
         if at >= values.size or values[at] != int(values[at]) or values[at] < 0:
             raise ValueError("stored light samples: a count is missing or not a whole number")
@@ -108,10 +109,11 @@ def samples_from_array(values: npt.ArrayLike, lights: int) -> list[tuple[np.ndar
         if at + 1 >= values.size or values[at + 1] < 0.0:
             raise ValueError("stored light samples: a shadow angle is missing or negative")
         shadow = float(values[at + 1])
-        rows = values[at + 2 : at + 2 + 4 * count].reshape(-1, 4)
-        at += 2 + 4 * count
-        if len(rows) != count:
+        block = values[at + 2 : at + 2 + 4 * count]
+        if block.size != 4 * count:
             raise ValueError("stored light samples are truncated")
+        rows = block.reshape(-1, 4)
+        at += 2 + 4 * count
         if count == 0:
             out.append(None)
             continue

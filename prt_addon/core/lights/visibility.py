@@ -56,7 +56,7 @@ def disc_directions(direction: npt.ArrayLike, angle: float, count: int) -> np.nd
     return np.concatenate(points)
 
 
-def _unit_rows(vectors):
+def _unit_rows(vectors: npt.ArrayLike) -> np.ndarray:
     v = np.asarray(vectors, dtype=np.float64).reshape(-1, 3)
     length = np.sqrt(np.einsum("ij,ij->i", v, v))
     ok = np.isfinite(length) & (length > 1e-12)

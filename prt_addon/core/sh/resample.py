@@ -111,7 +111,7 @@ def reduce_equirect(pixels: npt.ArrayLike, height_out: int, width_out: int) -> t
     return out, report, energy
 
 
-def image_energy(rgb: npt.ArrayLike) -> float:
+def image_energy(rgb: np.ndarray) -> float:
     """L2 energy integral of luminance^2 dOmega of a repaired (H, W, 3) equirect image."""
     height, width, _ = rgb.shape
     solid = (2.0 * np.pi / width) * np.diff(np.sin(row_elevations(height)[1]))
@@ -132,7 +132,7 @@ def truncation_fraction(coeffs: npt.ArrayLike, energy: float) -> float:
 DIFFUSE_REFERENCE_ORDER = 32
 
 
-def diffuse_truncation_fraction(reference_coeffs: npt.ArrayLike, order: int) -> float:
+def diffuse_truncation_fraction(reference_coeffs: np.ndarray, order: int) -> float:
     """Fraction of the L2 luminance energy of the diffuse shading E/pi (the lighting convolved with
     max(0, cos)/pi, Funk-Hecke) that lies beyond `order`, from coefficients of a higher order."""
 

@@ -20,6 +20,7 @@ Rotation about Z has a closed form (fast path, `z_rotation_matrix`): in band l, 
 from __future__ import annotations
 
 import functools
+from collections.abc import Iterable
 
 import numpy as np
 import numpy.typing as npt
@@ -197,7 +198,7 @@ def axis_angle_matrix(axis: npt.ArrayLike, angle: float) -> np.ndarray:
     return np.eye(3) + np.sin(angle) * k + (1.0 - np.cos(angle)) * (k @ k)
 
 
-def euler_xyz_matrix(angles: npt.ArrayLike) -> np.ndarray:
+def euler_xyz_matrix(angles: Iterable[float] | np.ndarray) -> np.ndarray:
     """3x3 matrix of Blender's 'XYZ' Euler rotation (applied X first, then Y, then Z): Rz Ry Rx."""
     x, y, z = (float(a) for a in angles)
     return axis_angle_matrix((0, 0, 1), z) @ axis_angle_matrix((0, 1, 0), y) @ axis_angle_matrix((1, 0, 0), x)

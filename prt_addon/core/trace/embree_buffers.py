@@ -52,7 +52,7 @@ _SIGNATURES = {
 }
 
 _lock = threading.Lock()
-_state = {}
+_state: dict[str, Any] = {}
 
 
 def _library_path():

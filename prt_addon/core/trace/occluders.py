@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Mapping
-from concurrent.futures import Executor
+from concurrent.futures import Executor, Future
 from typing import TYPE_CHECKING, Any, Protocol
 
 if TYPE_CHECKING:
@@ -46,10 +46,10 @@ class LazyOccluder:
         self.name = backend
         self._builder = builders[backend]
         self.max_threads = int(getattr(self._builder, "max_threads", 1))
-        self._parts = (vertices, triangles)
+        self._parts: Any = (vertices, triangles)  # None once built
         self._real: Occluder | None = None
         self._lock = threading.Lock()
-        self._started = None
+        self._started: Future[None] | None = None
 
     def start(self, pool: Executor) -> None:
         """Build in the background on `pool` (Embree only: the BVH build releases the GIL, and

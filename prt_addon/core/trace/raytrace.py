@@ -108,7 +108,7 @@ def bounding_box(vertices: npt.ArrayLike) -> np.ndarray:
     return np.array([[v[:, i].min() for i in range(3)], [v[:, i].max() for i in range(3)]], dtype=np.float64)
 
 
-def box_can_occlude(points: npt.ArrayLike, normals: npt.ArrayLike, boxes: npt.ArrayLike) -> np.ndarray:
+def box_can_occlude(points: np.ndarray, normals: npt.ArrayLike, boxes: npt.ArrayLike) -> np.ndarray:
     """(P,) bool: does any of the (K, 2, 3) boxes reach above the tangent plane of each point."""
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 2, 3)
     if len(boxes) == 0:

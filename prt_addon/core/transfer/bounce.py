@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from concurrent.futures import Executor
+from typing import Any
 
 import numpy as np
 
@@ -55,7 +56,7 @@ class Transport:
 
     def __init__(self, entries: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]], n_rows: int, channels: int):
         """entries: (rows, nodes, weights) tuples (a list is emptied: it is consumed)."""
-        parts = [e for e in entries if len(e[0])]
+        parts: list[tuple[Any, np.ndarray, np.ndarray]] = [e for e in entries if len(e[0])]
         self.n_rows = int(n_rows)
         self.channels = int(channels)
         self.entries = 0
@@ -147,11 +148,11 @@ class BouncePasses:
     ) -> None:
         if int(bounces) < 1:
             raise ValueError("bounces must be at least 1")
-        self.direct = np.asarray(direct, dtype=np.float32)[:, None, :]
+        self.direct: Any = np.asarray(direct, dtype=np.float32)[:, None, :]  # None once done
         self.transport, self.bounces, self.extra, self.pool = transport, int(bounces), list(extra), pool
         self.done = 0
-        self.term = self.direct
-        self.total = None
+        self.term: Any = self.direct  # None once done
+        self.total: Any = None
         self.extra_out: list[np.ndarray] = []
 
     def step(self) -> bool:

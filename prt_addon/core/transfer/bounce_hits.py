@@ -124,7 +124,7 @@ class LateSink:
     it when it collects the slice, in its caller's thread)."""
 
     def __init__(self) -> None:
-        self.sink = None
+        self.sink: HitTransport | None = None
 
     def set(self, sink: HitTransport) -> None:
         self.sink = sink

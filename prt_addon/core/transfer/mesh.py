@@ -35,7 +35,7 @@ def triangle_corners(
     first = np.cumsum(per_face) - per_face  # each face's first triangle
     corners = np.empty((int(per_face.sum()), 3), dtype=np.int32)
     tri = sizes == 3
-    corners[first[tri]] = starts[tri, None] + np.int32([0, 1, 2])
+    corners[first[tri]] = starts[tri, None] + np.array([0, 1, 2], dtype=np.int32)
     quad = ~tri
     if quad.any():
         quad_start, quad_first = starts[quad], first[quad]
@@ -52,7 +52,7 @@ def triangle_corners(
             flip = ((ca[0] * cb[0] + ca[1] * cb[1] + ca[2] * cb[2]) > np.float32(0.0)).view(np.int8)
         pair = np.empty((len(quad_start), 2, 3), dtype=np.int32)
         pair[:] = quad_start[:, None, None]
-        pair += np.int32([[0, 1, 2], [0, 2, 3]])
+        pair += np.array([[0, 1, 2], [0, 2, 3]], dtype=np.int32)
         pair[:, 0, 2] += flip  # (0, 1, 3)
         pair[:, 1, 0] += flip  # (1, 2, 3)
         if len(quad_start) == len(starts):  # quads only: the pairs are the triangles in order

@@ -30,7 +30,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterator
-from concurrent.futures import ThreadPoolExecutor, wait as futures_wait
+from concurrent.futures import Future, ThreadPoolExecutor, wait as futures_wait
 from typing import Any
 
 import numpy as np
@@ -51,7 +51,7 @@ SLICES_PER_THREAD = 4  # slices per step() and thread
 # reused across slices, weight f64 (8), horizon mask (1), directions (16), hit indices (8); per
 # traced ray, the flat indices (8), origins (16), Embree's int32 result and the hit mask (5); the
 # tiled directions table (16, shared by the threads). Checked with tracemalloc in
-# tests/test_transfer_tracing.py.
+# tests/core/test_transfer_tracing.py.
 RAY_BYTES = 80
 
 
@@ -135,16 +135,16 @@ class TransferComputation:
         self.error = np.zeros(count, dtype=np.float32)
         self.stats = TransferStats(points=count, candidate_rays=count * self.n_dirs)
         self.done = 0
-        self._tiles = {}
+        self._tiles: dict[Any, Any] = {}
         self._local = threading.local()
         self._cancel = False
         self._pool = pool
         self._own_pool = pool is None
-        self._pending = deque()  # (lo, hi, future) of queued slices, in point order
+        self._pending: deque[tuple[int, int, Future]] = deque()  # (lo, hi, future) of queued slices, in point order
         self._next = 0  # first point not yet queued
-        self._started = None
+        self._started: Any = None  # perf_counter() at the first step
         self.hit_sink = hit_sink
-        self.hits = []  # the sink's entries, one tuple per slice
+        self.hits: list[Any] = []  # the sink's entries, one tuple per slice
         self.hit_end = int(self.group_bounds[-(-groups // 2)]) if hit_sink is not None else 0
         self.hit_weight = self.n_dirs / self.hit_end if self.hit_end else 0.0
 

@@ -92,7 +92,7 @@ def error_calibration(kind: str, count: int, order: int) -> float:
     N / 2 nears the n^2 coefficients the halves alias. Measured on Suzanne and a torus on a
     ground plane (orders 2-8, 64-4096 directions) the raw ratio estimate / true error was
     1.4-2.0 for N >= 4 n^2 and up to 7 at N = n^2; fitted: raw ratio ~ 1.5 (1 + 3.5 (n^2 / N)^2).
-    Dividing by it leaves 0.9-1.8 on those scenes (tests/test_extreme.py::
+    Dividing by it leaves 0.9-1.8 on those scenes (tests/blender/test_extreme.py::
     test_error_estimate_within_a_factor_of_two_on_a_reference_scene).
     """
     if str(kind).upper() != "FIBONACCI":
