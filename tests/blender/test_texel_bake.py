@@ -3,8 +3,6 @@
 import numpy as np
 import pytest
 
-pytestmark = pytest.mark.blender
-
 UNIFORM = np.zeros((9, 3))
 UNIFORM[0] = np.sqrt(4.0 * np.pi)  # radiance 1 from every direction: E / pi = 1 on an open surface
 

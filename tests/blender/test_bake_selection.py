@@ -2,8 +2,6 @@
 
 import pytest
 
-pytestmark = pytest.mark.blender
-
 
 def test_cameras_and_lights_selected_with_the_meshes_are_left_out_quietly(bpy_module, empty_scene):
     from prt_addon import api

@@ -3,9 +3,6 @@
 import math
 
 import numpy as np
-import pytest
-
-pytestmark = [pytest.mark.blender, pytest.mark.gpu]
 
 UNIFORM_TILT = np.zeros((9, 3))
 UNIFORM_TILT[0] = np.sqrt(4.0 * np.pi)
@@ -47,7 +44,7 @@ def test_render_view_draws_the_texels_bilinearly(bpy_module, empty_scene, gpu_re
 def test_the_two_sides_of_a_smooth_seam_agree(bpy_module, empty_scene, monkeypatch):
     """A smooth sphere unwrapped with cuts, lit unevenly: along its seams the two sides' bilinear
     values agree to a fraction of what they differ by without the seam fix."""
-    import texel_scenes as ts
+    from helpers import texel_scenes as ts
 
     from prt_addon import api
     from prt_addon.blender.scene import lighting, mesh_read, storage, texel_storage

@@ -4,10 +4,8 @@ import math
 
 import numpy as np
 import pytest
-import texel_scenes as ts
-from conftest import bundled_hdri_path
-
-pytestmark = [pytest.mark.blender, pytest.mark.cycles]
+from helpers import texel_scenes as ts
+from helpers.worlds import bundled_hdri_path
 
 RES = 32
 CYCLES_SAMPLES = 128
