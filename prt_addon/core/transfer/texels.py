@@ -148,7 +148,7 @@ def texel_samples(
     finite = np.isfinite(uv).all(axis=(1, 2))
     outside = int((finite & ((uv < 0) | (uv > 1)).any(axis=(1, 2))).sum())
     e1x, e1y, e2x, e2y = x[:, 1] - x[:, 0], y[:, 1] - y[:, 0], x[:, 2] - x[:, 0], y[:, 2] - y[:, 0]
-    cross = e1x * e2y - e1y * e2x
+    cross: np.ndarray = e1x * e2y - e1y * e2x
     longest = np.max([e1x**2 + e1y**2, e2x**2 + e2y**2, (e2x - e1x) ** 2 + (e2y - e1y) ** 2], axis=0)
     with np.errstate(invalid="ignore"):
         valid = finite & (np.abs(cross) > DEGENERATE * longest)
