@@ -80,6 +80,21 @@ def test_bad_pixels_are_repaired_and_reported(bpy_module, empty_scene):
     bpy_module.ops.prt.project_world(order=3)  # warnings do not make the operator fail
 
 
+def test_negative_values_alone_are_told_in_the_report_not_as_a_warning(bpy_module, empty_scene):
+    """An HDRI with a few small negative values (as compressed HDRIs have) needs nothing of the
+    user: the operator's report says what was done, the panel shows no warning."""
+    from prt_addon.blender.world import projection as world_projection
+
+    rgb = np.full((16, 32, 3), 2.0)
+    rgb[10, 30] = (-0.01, 2.0, 2.0)
+    world = new_world(bpy_module, empty_scene)
+    use_image(world, float_image(bpy_module, "slightly negative", rgb))
+    result = world_projection.project_and_store(empty_scene, 3)
+    assert result.warnings == []
+    assert result.info == ["1 HDRI value was negative and treated as black"]
+    assert empty_scene.prt_world.message == ""
+
+
 def test_large_image_memory_is_bounded(bpy_module, empty_scene):
     """8192x4096 RGBA float: the reduction reads ROW_BLOCK rows at a time, so the numpy peak is
     the one float32 read buffer (512 MiB, which foreach_get needs) plus a few MiB."""

@@ -33,6 +33,8 @@ class PRT_OT_project_world(bpy.types.Operator):
             return {"CANCELLED"}
         for note in result.warnings:
             self.report({"WARNING"}, note)
+        for note in result.info:
+            self.report({"INFO"}, note)
         self.report(
             {"INFO"},
             f"World projected at order {result.order} from {result.source.kind.lower()} in "

@@ -46,7 +46,8 @@ class WorldProjection:
     diffuse_truncation: float = 0.0
     source_size: tuple = (0, 0)  # image (width, height) read or rendered
     projected_size: tuple = (0, 0)  # after reduction
-    warnings: list = field(default_factory=list)
+    warnings: list = field(default_factory=list)  # what the user should know or do (the panel shows them)
+    info: list = field(default_factory=list)  # what was done that needs no action (the operator's report only)
     split: bool = False  # whether the light split ran (an IMAGE or RENDER source with it on)
     lights: list = field(default_factory=list)  # core.lights.extraction.Light, image frame, strength applied
     light_share: float = 0.0  # fraction of the world's luminance power in the lights
@@ -82,7 +83,7 @@ def project(scene, order, force_render=False, split_lights=None, threshold=None,
     threshold, max_lights = light_split.check_split_settings(threshold, max_lights)
     start = time.perf_counter()
     source = analyse_world(scene)
-    notes = []
+    notes, info = [], []
     if force_render and source.kind != "RENDER":
         source = _render_source(scene.world, None, "a render was requested")
     pixels = None
@@ -113,7 +114,8 @@ def project(scene, order, force_render=False, split_lights=None, threshold=None,
         image_coeffs, report, energy, projected_size, diffuse_truncation = project_pixels(pixels, order)
         del pixels
         if report.repaired:
-            notes.append(report.in_words())
+            # Small negative values are common in HDRIs (compression, denoising): nothing to do.
+            (notes if report.nan or report.inf else info).append(report.in_words())
         truncation = resample.truncation_fraction(image_coeffs, energy)
         image_coeffs *= source.strength
         lights = light_split.scaled(lights, source.strength)
@@ -135,6 +137,7 @@ def project(scene, order, force_render=False, split_lights=None, threshold=None,
         source_size=source_size,
         projected_size=projected_size,
         warnings=notes,
+        info=info,
         split=split_lights and source.kind != "COLOR",
         lights=lights,
         light_share=light_split.share(lights, image_coeffs),
