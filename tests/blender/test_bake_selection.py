@@ -1,4 +1,4 @@
-"""Selecting everything and baking: objects with no geometry are left out quietly, meshes that could not be baked are explained; show_display redraws."""
+"""Selecting everything and baking: objects with no geometry are left out quietly, meshes that could not be baked are explained."""
 
 import pytest
 
@@ -27,13 +27,3 @@ def test_only_a_camera_selected_is_still_refused_with_its_reason(bpy_module, emp
     bpy_module.ops.object.camera_add()
     with pytest.raises(ValueError, match="nothing to bake: 'Camera' is a camera, not a mesh"):
         api.bake([bpy_module.context.object], order=2, samples=16)
-
-
-def test_setting_show_display_from_python_asks_the_views_to_redraw(bpy_module, empty_scene, monkeypatch):
-    from prt_addon.blender.ui import properties
-
-    calls = []
-    monkeypatch.setattr(properties, "tag_redraw", lambda: calls.append(1))
-    empty_scene.prt.show_display = False
-    empty_scene.prt.show_display = True
-    assert len(calls) == 2

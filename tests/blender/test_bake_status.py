@@ -106,7 +106,8 @@ def test_bad_inputs_give_clear_reports(empty_scene, bpy_module, bake_ops):
     cube = bpy.context.object
     report = api.bake([cube, empty, points], order=2, samples=16)
     assert report.objects == [cube.name]
-    assert [name for name, _ in report.skipped] == [empty.name, points.name]
+    assert [name for name, _ in report.skipped] == [points.name]  # (explained: it is a mesh)
+    assert [name for name, _ in report.left_out] == [empty.name]  # (no geometry: left out quietly)
     assert any("Skipped" in line for line in report.summary_lines())
     # The operator: empty selection, then a non-mesh only.
     bpy.ops.object.select_all(action="DESELECT")

@@ -9,12 +9,7 @@ import bpy
 
 from ...core.lights.extraction import MAX_LIGHTS
 from ..bake.settings import MAX_BOUNCES, MAX_ORDER, MAX_RESOLUTION, MIN_SAMPLES
-from ..display.redraw import tag_redraw
 from ..world.projection import MAX_ORDER as MAX_WORLD_ORDER
-
-
-def _redraw(_group, _context):
-    tag_redraw()  # (set from Python too, e.g. scene.prt.show_display = False: the view follows)
 
 
 class PRT_PG_scene(bpy.types.PropertyGroup):
@@ -24,7 +19,6 @@ class PRT_PG_scene(bpy.types.PropertyGroup):
         name="Show PRT",
         description="Draw baked objects with PRT lighting in the 3D View",
         default=True,
-        update=_redraw,
     )
 
 
