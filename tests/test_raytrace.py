@@ -148,7 +148,7 @@ def check_bound_to(library):
         import ctypes
         program = ctypes.CDLL({library!r}, mode=ctypes.RTLD_GLOBAL)
         import numpy as np
-        from prt_addon.core import embree_buffers, raytrace
+        from prt_addon.core.trace import embree_buffers, raytrace
         from tests.test_raytrace import random_rays, wavy_grid
         bound = embree_buffers._ready()
         address = lambda f: ctypes.cast(f, ctypes.c_void_p).value
@@ -178,7 +178,7 @@ def test_an_embree_error_is_reported_not_a_crash():
     out = run_python("""
         import numpy as np
         from embreex import rtcore_scene
-        from prt_addon.core import embree_buffers
+        from prt_addon.core.trace import embree_buffers
         lib = embree_buffers._ready()
         scene = rtcore_scene.EmbreeScene()
         device = lib.rtcGetSceneDevice(embree_buffers._scene_handle(scene))
