@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # The whole test suite in the project's own environment (created on first use): ruff's lint and
-# format check first (style fails fast), then pytest. Extra arguments go to pytest, e.g.
+# format check first (style fails fast), then the web package's lint (ESLint, Prettier's check,
+# TypeScript on the API's types; its node packages by `npm ci` into build/node, setup_node.sh),
+# then pytest. Extra arguments go to pytest, e.g.
 # `bash scripts/test.sh tests/test_sh.py -k poles`, or the fast lane without Cycles and the GPU:
 # `bash scripts/test.sh -m "not cycles and not gpu"`.
 set -euo pipefail
@@ -9,4 +11,7 @@ bash "$root/scripts/setup_venv.sh"
 cd "$root"
 "$root/.venv/bin/ruff" check --quiet .
 "$root/.venv/bin/ruff" format --check --quiet .
+bash "$root/scripts/setup_node.sh" >/dev/null
+(cd "$root/web" && ./node_modules/.bin/eslint . && ./node_modules/.bin/prettier --check --log-level warn . &&
+    ./node_modules/.bin/tsc -p types/tsconfig.json)
 exec "$root/.venv/bin/python" -m pytest "$@"

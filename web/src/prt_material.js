@@ -1,14 +1,15 @@
 // The PRT material: per-vertex max(0, sum_i L_i t_i) x albedo, plus the split lights per pixel.
 //
 // The same shading as Blender's display (prt_addon/blender/display/shader.py, shader_suns.py):
-// the transfer comes from an RGBA32F texture read with texelFetch at gl_VertexID (so any order
-// fits, whatever the vertex-attribute limit), the light is a uniform array of 3 * count vec4s
+// the transfer comes from a transfer source (transfer_source.js: prtTransfer(k), today a texture
+// read at gl_VertexID, so any order fits), the light is a uniform array of 3 * count vec4s
 // (light[ch * count + k] = L_{4k..4k+3} of channel ch, in the node's local frame). The split
 // lights add albedo * sum_v P_v/pi * C_v * V_v per pixel over their shadow views (shadows.js):
 // C_v = sum_j w_j max(0, n.s_j) over the view's samples, V_v PCSS on the view's map over
 // Vogel-disc taps, the same filter as Blender's (fewer taps for a wide light's views). Output is
-// linear radiance, or with `display` set, radiance * 2^exposure through the sRGB curve
-// (Blender's "Standard" view).
+// linear radiance times exposureScale (2^stops), then three.js's own tone mapping and output
+// colour space (renderer.toneMapping, outputColorSpace; none when drawing into a render target):
+// NoToneMapping and sRGB output is Blender's "Standard" view.
 import * as THREE from 'three';
 import {
   BLOCKER_TAPS,
@@ -20,53 +21,18 @@ import {
   WIDE_PCF_TAPS,
 } from './shadows.js';
 
-const MAX_TEXTURE_WIDTH = 4096;
-
-/** RGBA32F DataTexture of the transfer: `count` texels per vertex, perRow vertices per row. */
-export function transferTexture(geometry, names, maxSize = MAX_TEXTURE_WIDTH) {
-  const count = names.length;
-  const vertices = geometry.attributes.position.count;
-  const perRow = Math.max(1, Math.floor(Math.min(MAX_TEXTURE_WIDTH, maxSize) / count));
-  const rows = Math.ceil(vertices / perRow);
-  if (rows > maxSize) {
-    throw new Error(
-      `a mesh of ${vertices} vertices at ${count * 4} coefficients needs a ${perRow * count}x${rows} ` +
-        `texture; this browser allows ${maxSize}x${maxSize} (split the mesh or bake a lower order)`,
-    );
-  }
-  const width = perRow * count;
-  const data = new Float32Array(width * rows * 4);
-  names.forEach((name, k) => {
-    const attr = geometry.attributes[name.toLowerCase()] || geometry.attributes[name];
-    if (!attr || attr.itemSize !== 4) throw new Error(`the mesh has no VEC4 attribute ${name}`);
-    for (let v = 0; v < vertices; v++) {
-      const texel = (Math.floor(v / perRow) * width + (v % perRow) * count + k) * 4;
-      data[texel] = attr.getX(v);
-      data[texel + 1] = attr.getY(v);
-      data[texel + 2] = attr.getZ(v);
-      data[texel + 3] = attr.getW(v);
-    }
-  });
-  const texture = new THREE.DataTexture(data, width, rows, THREE.RGBAFormat, THREE.FloatType);
-  texture.minFilter = texture.magFilter = THREE.NearestFilter;
-  texture.generateMipmaps = false;
-  texture.needsUpdate = true;
-  return { texture, perRow };
-}
-
 // A bounced bake (Blender's bake.md, "Interreflection") has `channels` more blocks of `count`
 // vec4s after the direct one, lit by bounceLight: the sky plus the split lights' SH.
 const bounceLines = (count, channels) => {
   if (!channels) return '';
   const block = [0, 1, 2].map((c) => count * (1 + (channels === 3 ? c : 0)));
-  const fetch = (b) => `texelFetch(transferTx, ivec2(col + ${b} + k, row), 0)`;
+  const fetch = (b) => `prtTransfer(${b} + k)`;
   return `    r += vec3(dot(${fetch(block[0])}, bounceLight[k]), dot(${fetch(block[1])}, bounceLight[${count} + k]),
               dot(${fetch(block[2])}, bounceLight[${2 * count} + k]));`;
 };
 
-const VERTEX = (count, views, channels) => `
-uniform sampler2D transferTx;
-uniform int perRow;
+const VERTEX = (count, views, channels, source) => `
+${source.glsl}
 uniform vec4 light[${3 * count}];
 ${channels ? `uniform vec4 bounceLight[${3 * count}];` : ''}
 uniform vec3 albedo;
@@ -75,10 +41,8 @@ varying vec3 radiance;
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 void main() {
   vec3 r = vec3(0.0);
-  int col = (gl_VertexID % perRow) * ${count * (1 + channels)};
-  int row = gl_VertexID / perRow;
   for (int k = 0; k < ${count}; k++) {
-    vec4 t = texelFetch(transferTx, ivec2(col + k, row), 0);
+    vec4 t = prtTransfer(k);
     r += vec3(dot(t, light[k]), dot(t, light[${count} + k]), dot(t, light[${2 * count} + k]));
 ${bounceLines(count, channels)}
   }
@@ -183,36 +147,33 @@ const SUN_LOOP = (views) => `  vec3 n = normalize(nrmMatrix * localNrm);
   color += surfaceAlbedo * sun;`;
 
 const FRAGMENT = (views, samples) => `
-uniform bool display;
 uniform float exposureScale;
 varying vec3 radiance;
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 ${views ? SUN_FUNCTIONS(views, samples) : ''}
-vec3 srgb(vec3 c) {
-  c = clamp(c, 0.0, 1.0);
-  return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
-}
 void main() {
   vec3 color = radiance;
 ${views ? SUN_LOOP(views) : ''}
-  gl_FragColor = display ? vec4(srgb(color * exposureScale), 1.0) : vec4(color, 1.0);
+  gl_FragColor = vec4(color * exposureScale, 1.0);
+  #include <tonemapping_fragment>
+  #include <colorspace_fragment>
 }
 `;
 
-/** A ShaderMaterial for `count` transfer vec4s (per block), `views` shadow views holding `samples`
- * samples in all (0: no split lights) and a bounced transfer of `channels` channels (0: none)
- * (shared uniforms passed in). */
-export function prtMaterial({ count, views = 0, samples = 0, texture, perRow, albedo, shared, channels = 0 }) {
+/** A ShaderMaterial for a transfer source (transfer_source.js: `count` vec4s per block, 1 + `channels`
+ * blocks), `views` shadow views holding `samples` samples in all (0: no split lights), a bounced
+ * transfer of `channels` channels (0: none), shared uniforms passed in. */
+export function prtMaterial({ source, views = 0, samples = 0, albedo, shared, channels = 0 }) {
+  if (source.stage !== 'vertex') throw new Error(`a '${source.stage}' transfer source is not supported yet`);
+  const count = source.count;
   const vec4s = () => ({ value: Array.from({ length: 3 * count }, () => new THREE.Vector4()) });
   const uniforms = {
-    transferTx: { value: texture },
-    perRow: { value: perRow },
+    ...source.uniforms,
     light: vec4s(),
     ...(channels ? { bounceLight: vec4s() } : {}),
     albedo: { value: new THREE.Vector3(...albedo) },
     scale: { value: 1.0 },
     nrmMatrix: { value: new THREE.Matrix3() },
-    display: shared.display,
     exposureScale: shared.exposureScale,
   };
   if (views) {
@@ -223,7 +184,7 @@ export function prtMaterial({ count, views = 0, samples = 0, texture, perRow, al
   }
   return new THREE.ShaderMaterial({
     uniforms,
-    vertexShader: VERTEX(count, views, channels),
+    vertexShader: VERTEX(count, views, channels, source),
     fragmentShader: FRAGMENT(views, samples),
     side: THREE.DoubleSide,
   });
