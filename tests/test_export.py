@@ -54,15 +54,31 @@ def _read_glb(path):
     binary = chunks[0][1]
 
     def accessor(index):
+        """The accessor's values: floats, or a normalised integer one's q / K (glTF's decoding)."""
         acc = document["accessors"][index]
         view = document["bufferViews"][acc["bufferView"]]
-        assert acc["componentType"] == 5126  # FLOAT
+        dtype, k = {5126: (np.float32, None), 5122: (np.int16, 32767), 5120: (np.int8, 127)}[acc["componentType"]]
+        assert (k is not None) == acc.get("normalized", False)
         width = COMPONENTS[acc["type"]]
         start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
-        assert view.get("byteStride", 4 * width) == 4 * width
-        return np.frombuffer(binary, np.float32, acc["count"] * width, start).reshape(-1, width)
+        assert view.get("byteStride", np.dtype(dtype).itemsize * width) == np.dtype(dtype).itemsize * width
+        values = np.frombuffer(binary, dtype, acc["count"] * width, start).reshape(-1, width)
+        return values if k is None else np.maximum(values.astype(np.float64) / k, -1.0)
 
     return document, accessor
+
+
+def _transfer(document, accessor, mesh, prim):
+    """A primitive's transfer (rows of n*n, glTF frame) decoded as docs/export.md says: float32
+    as stored, a quantised one as offset + scale * (q / K) per attribute and component."""
+    meta = mesh["extras"]["PRT_lighting"]
+    columns = []
+    for k, name in enumerate(meta["attributes"]):
+        values = accessor(prim["attributes"][name]).astype(np.float64)
+        if meta.get("transfer_encoding", "float32") != "float32":
+            values = np.asarray(meta["decode"][k]["offset"]) + np.asarray(meta["decode"][k]["scale"]) * values
+        columns.append(values)
+    return np.hstack(columns)[:, : meta["order"] ** 2]
 
 
 def _stored_rows(obj):
@@ -127,15 +143,17 @@ def _user_state(bpy):
     return state
 
 
-def test_export_round_trip(baked, bpy_module, tmp_path):
-    from prt_addon import api
+@pytest.mark.parametrize("transfer", ["float32", "snorm16"])
+def test_export_round_trip(baked, bpy_module, tmp_path, transfer):
+    """The file holds each stored transfer row and position (float32 to 2e-5, the default snorm16
+    to its quantisation step), the lighting and its lights, and the user's data are untouched."""
     from prt_addon.blender.export import gltf
     from prt_addon.blender.world import projection
 
     bpy = bpy_module
     scene, objs = baked
     before = _user_state(bpy)
-    path = api.export_gltf(str(tmp_path / "scene.glb"))
+    path = gltf.export_gltf(str(tmp_path / "scene.glb"), transfer=transfer)
     assert os.path.isfile(path) and os.listdir(tmp_path) == ["scene.glb"]
     assert _user_state(bpy) == before
     document, accessor = _read_glb(path)
@@ -164,21 +182,28 @@ def test_export_round_trip(baked, bpy_module, tmp_path):
             assert names == meta["attributes"] == [f"_PRT_T{k}" for k in range((order * order + 3) // 4)]
             assert all(document["accessors"][prim["attributes"][k]]["type"] == "VEC4" for k in names)
             assert not any(k.startswith("COLOR_") for k in prim["attributes"])
-            t_all.append(np.hstack([accessor(prim["attributes"][k]) for k in names])[:, : order * order])
+            t_all.append(_transfer(document, accessor, mesh, prim))
             p = accessor(prim["attributes"]["POSITION"]).astype(np.float64)
             pos_all.append(np.stack([p[:, 0], -p[:, 2], p[:, 1]], axis=1))
         stored_pos, stored_t = _stored_rows(obj)
-        _assert_rows_match(stored_pos, stored_t, np.vstack(pos_all), _from_gltf(np.vstack(t_all)))
+        assert meta["transfer_encoding"] == transfer and meta["version"] == (1 if transfer == "float32" else 2)
+        # snorm16: at most half a step (scale / 32767) per stored component, and the rotation back
+        # to Blender's frame mixes at most 2l + 1 <= 7 of them (orthogonal per band).
+        step = max(max(d["scale"]) for d in meta["decode"]) / 32767 if transfer != "float32" else 0.0
+        tol = 2e-5 + 0.5 * step * np.sqrt(7)
+        _assert_rows_match(stored_pos, stored_t, np.vstack(pos_all), _from_gltf(np.vstack(t_all)), tol=tol)
 
 
 def test_reimport_has_the_transfer(baked, bpy_module, tmp_path):
-    from prt_addon import api
+    """A float32 file imported by Blender's glTF importer has the transfer as attributes (a
+    quantised one would arrive as q / K: Blender's importer does not know the decode table)."""
+    from prt_addon.blender.export import gltf
 
     bpy = bpy_module
     _scene, objs = baked
     stored = {name: _stored_rows(obj) for name, obj in objs.items()}
     names = {name: obj.name for name, obj in objs.items()}
-    path = api.export_gltf(str(tmp_path / "scene.glb"))
+    path = gltf.export_gltf(str(tmp_path / "scene.glb"), transfer="float32")
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.import_scene.gltf(filepath=path)
     for key, (stored_pos, stored_t) in stored.items():
