@@ -17,11 +17,37 @@ SRC = os.path.join(ROOT, "web", "src")
 SCRIPT = """
 import * as THREE from 'three';
 import fs from 'node:fs';
-import { geometryTransferSource } from %(src)s/transfer_source.js;
+import { geometryTransferSource, packedTransferSource } from %(src)s/transfer_source.js;
 import { readLighting, readTransfer } from %(src)s/format.js;
 import { rotationRows } from %(src)s/rotation_input.js;
 const job = JSON.parse(fs.readFileSync(0, 'utf8'));
-const out = { decoded: [], checks: [], rotations: [] };
+const out = { decoded: [], checks: [], rotations: [], packed: [] };
+for (const c of job.packed || []) {
+  // The shader's arithmetic in JS: r_c = constant_c + sum_k dot(unpacked vec4 k of block blocks[c], rows_k).
+  const geometry = new THREE.BufferGeometry();
+  geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(c.vertices * 3), 3));
+  c.attributes.forEach((a, k) => geometry.setAttribute(`_prt_t${k}`, new THREE.BufferAttribute(Int16Array.from(a), 4, true)));
+  const spec = readTransfer(c.meta, geometry);
+  const source = packedTransferSource(geometry, spec);
+  const { rows, constant } = source.lightFor(c.light, c.blocks);
+  const radiance = [];
+  for (let v = 0; v < c.vertices; v++) {
+    const r = constant.slice();
+    for (let ch = 0; ch < 3; ch++) {
+      for (let k = 0; k < spec.count; k++) {
+        const i = c.blocks[ch] * spec.count + k;
+        const packed = geometry.attributes[`prtPacked${i >> 1}`].array;
+        for (let j = 0; j < 4; j++) {
+          const word = packed[4 * v + j];
+          const q = i % 2 ? word >> 16 : (word << 16) >> 16;
+          r[ch] += q * (rows[4 * k + j] ? rows[4 * k + j][ch] : 0);
+        }
+      }
+    }
+    radiance.push(r);
+  }
+  out.packed.push({ radiance, kind: source.kind, slots: Object.keys(geometry.attributes).filter((n) => n.startsWith('prtPacked')).length });
+}
 for (const c of job.decode) {
   const geometry = new THREE.BufferGeometry();
   geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(c.vertices * 3), 3));
@@ -114,7 +140,7 @@ def test_plugin_decodes_the_transfer_as_the_export_encodes_it():
         _decode_case("float32", 3, 20, rng),
         _decode_case("snorm16", 4, 23, rng, interleaved=True),
     ]
-    out = _run({"decode": [c for c, _e, _v in cases], "checks": [], "rotations": []})
+    out = _run({"decode": [c for c, _e, _v in cases], "checks": [], "rotations": [], "packed": []})
     for (case, expected, original), got in zip(cases, out["decoded"], strict=True):
         count, vertices = expected.shape[0], case["vertices"]
         per_row, width = got["perRow"], got["width"]
@@ -204,3 +230,42 @@ def test_rotation_inputs_are_the_same_rotation():
     np.testing.assert_allclose(np.array(out[1]).reshape(3, 3), rotation.axis_angle_matrix(axis, angle), atol=1e-12)
     np.testing.assert_allclose(np.array(out[2]).reshape(3, 3), euler, atol=1e-12)
     np.testing.assert_allclose(np.array(out[3]).reshape(3, 3), euler.T, atol=1e-12)
+
+
+def test_packed_source_folds_the_decoding_into_the_light():
+    """The packed source's integers (two 16-bit values an int32) dotted with lightFor's rows, plus
+    its constant, as the shader computes them, are sum_i L_i t_i of the decoded transfer, for the
+    direct block and for a bounced block (channel c against block blocks[c])."""
+    rng = np.random.default_rng(23)
+    order, vertices = 5, 31
+    count = (order * order + 3) // 4  # 7: the last int32's high half holds the next block's first vec4
+    blocks = 2  # direct and one bounced channel
+    attributes, table, decoded = [], [], []
+    for _ in range(count * blocks):
+        rows = rng.normal(size=(vertices, 4)) * rng.uniform(0.01, 2.0, 4) + rng.normal(size=4)
+        q, offset, scale = quantise.encode(rows, 32767)
+        attributes.append(q.astype(int).ravel().tolist())
+        table.append({"offset": offset.tolist(), "scale": scale.tolist()})
+        decoded.append(quantise.decode(q, offset, scale, 32767))
+    meta = {
+        "version": 2,
+        "order": order,
+        "attributes": [f"_PRT_T{i}" for i in range(count)],
+        "bounce_attributes": [f"_PRT_T{i}" for i in range(count, 2 * count)],
+        "bounce_channels": 1,
+        "transfer_encoding": "snorm16",
+        "decode": table,
+    }
+    light = rng.normal(size=(order * order, 3))
+    cases = [
+        {"vertices": vertices, "attributes": attributes, "meta": meta, "light": light.tolist(), "blocks": b}
+        for b in ([0, 0, 0], [1, 1, 1])
+    ]
+    out = _run({"decode": [], "checks": [], "rotations": [], "packed": cases})["packed"]
+    t = np.stack(decoded)  # (count * blocks, vertices, 4)
+    for case, got in zip(cases, out, strict=True):
+        assert got["kind"] == "packed" and got["slots"] == count  # ceil(14 / 2)
+        block = case["blocks"][0]
+        transfer = t[block * count : (block + 1) * count].transpose(1, 0, 2).reshape(vertices, -1)[:, : order * order]
+        want = transfer @ light
+        assert np.abs(np.array(got["radiance"]) - want).max() < 1e-9 * np.abs(want).max()

@@ -224,6 +224,8 @@ def _check_files(f):
     """What the loader made of each file, and what the console said."""
     said = {name: " | ".join(entry["console"]) for name, entry in f.items()}
     errors = {name: [m for m in entry["console"] if m.startswith(("error", "pageerror"))] for name, entry in f.items()}
+    # The quantised file's transfer in packed vertex attributes, the float32 one's in a texture.
+    assert f["prt"]["info"]["sources"] == ["packed", "packed"] and f["float"]["info"]["sources"] == ["texture"] * 2
     for name in ("prt", "float"):
         assert f[name]["prt"] and not errors[name], said[name]
         assert all(m["prt"] for m in f[name]["meshes"]) and len(f[name]["meshes"]) == 2, f[name]

@@ -9,7 +9,7 @@
 // newer or broken (gltf.userData.prt is then null), a mesh whose transfer is broken keeps its
 // own material.
 import { FormatError, readLighting, readTransfer } from './format.js';
-import { geometryTransferSource } from './transfer_source.js';
+import { geometryTransferSource, packedTransferSource } from './transfer_source.js';
 import { DEFAULT_ALBEDO, PRTLighting } from './prt_lighting.js';
 import { loadEnvironment } from './background.js';
 
@@ -21,7 +21,8 @@ function say(level, message) {
 
 export class PRTLightingPlugin {
   /** options: {exposure (stops; default the file's), maxTextureSize (default 4096), quiet (no
-   * message for a glTF without PRT data)}. */
+   * message for a glTF without PRT data), transferSource ('auto', default: a quantised transfer
+   * in packed vertex attributes when it fits, else a texture; 'texture': always the texture)}. */
   constructor(parser, options = {}) {
     this.parser = parser;
     this.options = options;
@@ -60,16 +61,21 @@ export class PRTLightingPlugin {
       try {
         const spec = readTransfer(transfer, object.geometry);
         if (!sources.has(object.geometry)) {
-          sources.set(object.geometry, geometryTransferSource(object.geometry, spec, this.options.maxTextureSize));
+          const packed = this.options.transferSource === 'texture' ? null : packedTransferSource(object.geometry, spec);
+          sources.set(
+            object.geometry,
+            packed || geometryTransferSource(object.geometry, spec, this.options.maxTextureSize),
+          );
           for (const attr of spec.names) object.geometry.deleteAttribute(attr.toLowerCase());
         }
         const primitive = mesh.primitives[where.primitives] || {};
         const color = object.material && object.material.color;
         const albedo = primitive.material === undefined || !color ? DEFAULT_ALBEDO : [color.r, color.g, color.b];
-        object.frustumCulled = false; // (the transfer is read at gl_VertexID: no partial draws)
-        baked.push({ object, spec, albedo, source: sources.get(object.geometry) });
+        object.frustumCulled = false; // (as before the plugin: the bounding box is the file's)
+        const side = object.material ? object.material.side : undefined; // (glTF's doubleSided)
+        baked.push({ object, spec, albedo, side, source: sources.get(object.geometry) });
       } catch (error) {
-        if (!(error instanceof FormatError)) throw error;
+        // (a FormatError, or e.g. a transfer texture larger than the GPU allows)
         say('error', `mesh '${name}': ${error.message}; drawn with its own material`);
       }
     });
@@ -77,7 +83,13 @@ export class PRTLightingPlugin {
       say('warn', 'the file has PRT lighting but no mesh with a usable transfer: drawn without PRT');
       return;
     }
-    this.prt = new PRTLighting({ lighting, baked, casters, exposure: this.options.exposure });
+    try {
+      this.prt = new PRTLighting({ lighting, baked, casters, exposure: this.options.exposure });
+    } catch (error) {
+      say('error', `${error.message}; the scene is drawn without PRT`);
+      for (const { object } of baked) object.frustumCulled = true;
+      return;
+    }
     this.prt.environment = () => loadEnvironment(this.parser);
     gltf.userData.prt = this.prt;
   }

@@ -37,7 +37,7 @@ function viewUniforms(views, samples) {
 
 export class PRTLighting {
   /**
-   * lighting: readLighting's (format.js); baked: [{object, source, spec, albedo}] (the meshes to
+   * lighting: readLighting's (format.js); baked: [{object, source, spec, albedo, side}] (the meshes to
    * draw with PRT); casters: every mesh of the file (they cast the split lights' shadows).
    */
   constructor({ lighting, baked, casters, exposure }) {
@@ -60,7 +60,7 @@ export class PRTLighting {
       sharpMaps: { value: null },
       wideMaps: { value: null },
     };
-    this.baked = baked.map(({ object, source, spec, albedo }) => {
+    this.baked = baked.map(({ object, source, spec, albedo, side }) => {
       const material = prtMaterial({
         source,
         views: this.views.length,
@@ -68,6 +68,7 @@ export class PRTLighting {
         albedo,
         shared: this.shared,
         channels: spec.channels,
+        side,
       });
       object.userData.prtOriginalMaterial = object.material;
       object.material = material;
@@ -142,9 +143,19 @@ export class PRTLighting {
     const { object, material, count, order, channels } = entry;
     if (entry.frame && entry.frame.equals(object.matrixWorld)) return;
     const frame = linearPart(object.matrixWorld);
-    setLight(material, lightInLocalFrame(this.lighting.coefficients, frame, order, this.turn), count);
-    if (channels)
-      setLight(material, lightInLocalFrame(this.bounceCoefficients, frame, order, this.turn), count, 'bounceLight');
+    // The light as the transfer source wants it (its decoding folded in, transfer_source.js).
+    const direct = entry.source.lightFor(
+      lightInLocalFrame(this.lighting.coefficients, frame, order, this.turn),
+      [0, 0, 0],
+    );
+    setLight(material, direct.rows, count);
+    material.uniforms.lightConstant.value.set(...direct.constant);
+    if (channels) {
+      const blocks = channels === 3 ? [1, 2, 3] : [1, 1, 1];
+      const bounce = entry.source.lightFor(lightInLocalFrame(this.bounceCoefficients, frame, order, this.turn), blocks);
+      setLight(material, bounce.rows, count, 'bounceLight');
+      material.uniforms.bounceConstant.value.set(...bounce.constant);
+    }
     material.uniforms.nrmMatrix.value.getNormalMatrix(object.matrixWorld);
     entry.frame = object.matrixWorld.clone();
   }
@@ -193,6 +204,7 @@ export class PRTLighting {
     return {
       objects: this.baked.map((b) => b.object.name),
       orders: this.baked.map((b) => b.order),
+      sources: this.baked.map((b) => b.source.kind),
       lightingOrder: this.lighting.order,
       lights: this.lights.length,
       views: this.views.map(({ light, wide, samples }) => ({ light, wide, samples: samples.length })),

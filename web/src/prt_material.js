@@ -1,8 +1,8 @@
 // The PRT material: per-vertex max(0, sum_i L_i t_i) x albedo, plus the split lights per pixel.
 //
 // The same shading as Blender's display (prt_addon/blender/display/shader.py, shader_suns.py):
-// the transfer comes from a transfer source (transfer_source.js: prtTransfer(k), today a texture
-// read at gl_VertexID, so any order fits), the light is a uniform array of 3 * count vec4s
+// the transfer comes from a transfer source (transfer_source.js: fetch(k), the k-th vec4 from
+// packed integer attributes or a texture read at gl_VertexID), the light is a uniform array of 3 * count vec4s
 // (light[ch * count + k] = L_{4k..4k+3} of channel ch, in the node's local frame). The split
 // lights add albedo * sum_v P_v/pi * C_v * V_v per pixel over their shadow views (shadows.js):
 // C_v = sum_j w_j max(0, n.s_j) over the view's samples, V_v PCSS on the view's map over
@@ -21,31 +21,41 @@ import {
   WIDE_PCF_TAPS,
 } from './shadows.js';
 
-// A bounced bake (Blender's bake.md, "Interreflection") has `channels` more blocks of `count`
-// vec4s after the direct one, lit by bounceLight: the sky plus the split lights' SH.
-const bounceLines = (count, channels) => {
-  if (!channels) return '';
+// The sum unrolled (k constant, so a source's fetch(k) can name an attribute). A bounced bake
+// (Blender's bake.md, "Interreflection") has `channels` more blocks of `count` vec4s after the
+// direct one, lit by bounceLight: the sky plus the split lights' SH. lightConstant and
+// bounceConstant are the parts of the sums a source folds out of the transfer (its decoding's
+// offsets, transfer_source.js; 0 for the texture source).
+function transferSum(count, channels, source) {
+  const lines = [];
   const block = [0, 1, 2].map((c) => count * (1 + (channels === 3 ? c : 0)));
-  const fetch = (b) => `prtTransfer(${b} + k)`;
-  return `    r += vec3(dot(${fetch(block[0])}, bounceLight[k]), dot(${fetch(block[1])}, bounceLight[${count} + k]),
-              dot(${fetch(block[2])}, bounceLight[${2 * count} + k]));`;
-};
+  for (let k = 0; k < count; k++) {
+    lines.push(`  t = ${source.fetch(k)};`);
+    lines.push(`  r += vec3(dot(t, light[${k}]), dot(t, light[${count + k}]), dot(t, light[${2 * count + k}]));`);
+    if (!channels) continue;
+    const b = block.map((first) => (channels === 3 ? source.fetch(first + k) : 't1'));
+    if (channels === 1) lines.push(`  t1 = ${source.fetch(block[0] + k)};`);
+    lines.push(
+      `  r += vec3(dot(${b[0]}, bounceLight[${k}]), dot(${b[1]}, bounceLight[${count + k}]), dot(${b[2]}, bounceLight[${2 * count + k}]));`,
+    );
+  }
+  return lines.join('\n');
+}
 
 const VERTEX = (count, views, channels, source) => `
 ${source.glsl}
 uniform vec4 light[${3 * count}];
-${channels ? `uniform vec4 bounceLight[${3 * count}];` : ''}
+uniform vec3 lightConstant;
+${channels ? `uniform vec4 bounceLight[${3 * count}];\nuniform vec3 bounceConstant;` : ''}
 uniform vec3 albedo;
 uniform float scale;
 varying vec3 radiance;
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 void main() {
-  vec3 r = vec3(0.0);
-  for (int k = 0; k < ${count}; k++) {
-    vec4 t = prtTransfer(k);
-    r += vec3(dot(t, light[k]), dot(t, light[${count} + k]), dot(t, light[${2 * count} + k]));
-${bounceLines(count, channels)}
-  }
+  vec3 r = lightConstant${channels ? ' + bounceConstant' : ''};
+  vec4 t;
+  ${channels === 1 ? 'vec4 t1;' : ''}
+${transferSum(count, channels, source)}
   radiance = max(r, vec3(0.0)) * albedo * scale;
   vec4 wp = modelMatrix * vec4(position, 1.0);
 ${views ? '  surfaceAlbedo = albedo * scale;\n  worldPos = wp.xyz;\n  localNrm = normal;' : ''}
@@ -162,15 +172,17 @@ ${views ? SUN_LOOP(views) : ''}
 
 /** A ShaderMaterial for a transfer source (transfer_source.js: `count` vec4s per block, 1 + `channels`
  * blocks), `views` shadow views holding `samples` samples in all (0: no split lights), a bounced
- * transfer of `channels` channels (0: none), shared uniforms passed in. */
-export function prtMaterial({ source, views = 0, samples = 0, albedo, shared, channels = 0 }) {
+ * transfer of `channels` channels (0: none), shared uniforms passed in; `side` as three.js's
+ * (the plugin passes the glTF material's: doubleSided or not). */
+export function prtMaterial({ source, views = 0, samples = 0, albedo, shared, channels = 0, side = THREE.DoubleSide }) {
   if (source.stage !== 'vertex') throw new Error(`a '${source.stage}' transfer source is not supported yet`);
   const count = source.count;
   const vec4s = () => ({ value: Array.from({ length: 3 * count }, () => new THREE.Vector4()) });
   const uniforms = {
     ...source.uniforms,
     light: vec4s(),
-    ...(channels ? { bounceLight: vec4s() } : {}),
+    lightConstant: { value: new THREE.Vector3() },
+    ...(channels ? { bounceLight: vec4s(), bounceConstant: { value: new THREE.Vector3() } } : {}),
     albedo: { value: new THREE.Vector3(...albedo) },
     scale: { value: 1.0 },
     nrmMatrix: { value: new THREE.Matrix3() },
@@ -186,7 +198,7 @@ export function prtMaterial({ source, views = 0, samples = 0, albedo, shared, ch
     uniforms,
     vertexShader: VERTEX(count, views, channels, source),
     fragmentShader: FRAGMENT(views, samples),
-    side: THREE.DoubleSide,
+    side,
   });
 }
 

@@ -3,15 +3,16 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
 import { PRTLightingPlugin, type PRTLighting } from 'prt-lighting-three';
 
-export async function example(renderer: THREE.WebGLRenderer, scene: THREE.Scene, camera: THREE.Camera) {
+export async function example() {
+  const renderer = new THREE.WebGLRenderer();
+  renderer.setSize(innerWidth, innerHeight);
+  document.body.append(renderer.domElement);
   const loader = new GLTFLoader().register((parser) => new PRTLightingPlugin(parser));
   const gltf = await loader.loadAsync('scene.glb');
-  scene.add(gltf.scene);
-  const prt: PRTLighting | null = gltf.userData.prt;
-  const background = prt && (await prt.createBackground());
-  if (background) scene.add(background);
-  renderer.setAnimationLoop((time: number) => {
-    prt?.setLightingRotation(new THREE.Euler(0, time / 4000, 0));
-    renderer.render(scene, camera);
+  const prt: PRTLighting = gltf.userData.prt;
+  const scene = new THREE.Scene().add(gltf.scene, (await prt.createBackground())!);
+  renderer.setAnimationLoop((t: number) => {
+    prt.setLightingRotation(new THREE.Euler(0, t / 4000, 0));
+    renderer.render(scene, gltf.cameras[0]);
   });
 }

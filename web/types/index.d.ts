@@ -12,11 +12,15 @@ export interface PRTLightingOptions {
   maxTextureSize?: number;
   /** No console message for a glTF without PRT data. */
   quiet?: boolean;
+  /** 'auto' (default): a quantised transfer in packed vertex attributes when it fits, else a texture. */
+  transferSource?: 'auto' | 'texture';
 }
 
 export interface PRTInfo {
   objects: string[];
   orders: number[];
+  /** per object, where its transfer is read from: 'packed' (vertex attributes) or 'texture' */
+  sources: string[];
   lightingOrder: number;
   lights: number;
   views: { light: number; wide: boolean; samples: number }[];
@@ -24,12 +28,17 @@ export interface PRTInfo {
 
 /** A transfer source (transfer_source.js): where the PRT material reads the transfer from. */
 export interface TransferSource {
+  kind: string;
   stage: 'vertex' | 'fragment';
   count: number;
   blocks: number;
   uniforms: Record<string, { value: unknown }>;
-  /** GLSL defining `vec4 prtTransfer(int k)`. */
+  /** GLSL declarations for fetch. */
   glsl: string;
+  /** A GLSL expression for the k-th vec4 of the transfer (k a constant). */
+  fetch(k: number): string;
+  /** The light (rows of [r, g, b]) as the shader dots it with fetch's vec4s, and a constant per channel. */
+  lightFor(rows: number[][], blocks: number[]): { rows: number[][]; constant: number[] };
   dispose(): void;
 }
 
@@ -75,6 +84,7 @@ export function readTransfer(meta: unknown, geometry: unknown): Record<string, u
 /** A per-vertex transfer source: one Float32Array (vertices x 4) per vec4, `count` per block. */
 export function vertexTransferSource(rows: Float32Array[], count: number, maxSize?: number): TransferSource;
 export function geometryTransferSource(geometry: unknown, spec: unknown, maxSize?: number): TransferSource;
+export function packedTransferSource(geometry: unknown, spec: unknown): TransferSource | null;
 export function prtMaterial(options: {
   source: TransferSource;
   views?: number;
