@@ -112,6 +112,7 @@ def test_plugin_in_an_app_page(demo_scene, browser_tools, tmp_path, capsys):  # 
     plain = _variant(prt, tmp_path / "plain.glb", _strip)
     bad = _bad_files(prt, tmp_path)
     files = [{"name": "prt", "glb": prt}, {"name": "float", "glb": flt}, {"name": "plain", "glb": plain}]
+    files += [{"name": "packed", "glb": prt, "options": {"transferSource": "packed"}}]
     files += [{"name": "plain_alone", "glb": plain, "plugin": False}]
     files += [{"name": name, "glb": path} for name, path in bad.items()]
     size = {"width": WIDTH, "height": HEIGHT}
@@ -119,6 +120,7 @@ def test_plugin_in_an_app_page(demo_scene, browser_tools, tmp_path, capsys):  # 
     renders = [
         dict(size, name="prt"),
         dict(size, name="float"),
+        dict(size, name="packed"),
         dict(size, name="prt", ordinary=True, appLights=True),
         dict(size, name=None, ordinary=True, appLights=True, camera=None),
         dict(size, name="prt", target="screen", toneMapping="Reinhard", toneExposure=1.5, exposure=1.0),
@@ -130,7 +132,9 @@ def test_plugin_in_an_app_page(demo_scene, browser_tools, tmp_path, capsys):  # 
         for d in PROBES:
             camera = {"fov": 6.0, "position": [0.0, 60.0, 0.0], "target": [d[0], 60.0 + d[1], d[2]]}
             renders.append(dict(probe, camera=camera, turn=rotation))
-    renders[3]["camera"] = _file_camera(prt)  # the app alone, framed as the file's camera frames it
+    next(r for r in renders if r["name"] is None)["camera"] = _file_camera(
+        prt
+    )  # the app alone, framed as the file's camera frames it
     job = {"chromium": browser_tools["chromium"], "out": str(tmp_path / "plugin"), "files": files, "renders": renders}
     path = tmp_path / "job.json"
     path.write_text(json.dumps(job))
@@ -154,7 +158,9 @@ def test_plugin_in_an_app_page(demo_scene, browser_tools, tmp_path, capsys):  # 
 
     # The plugin's image of both files against render_view.
     results = {}
-    for name, image in (("prt", images[0]), ("float", images[1])):
+    packed = images.pop(2)  # (the list below as before)
+    renders.pop(2)
+    for name, image in (("prt", images[0]), ("float", images[1]), ("packed", packed)):
         file = tmp_path / f"{name}.f32"
         image.astype(np.float32).tofile(file)
         results[name] = _compare(reference, file, WIDTH, HEIGHT)
@@ -225,7 +231,8 @@ def _check_files(f):
     said = {name: " | ".join(entry["console"]) for name, entry in f.items()}
     errors = {name: [m for m in entry["console"] if m.startswith(("error", "pageerror"))] for name, entry in f.items()}
     # The quantised file's transfer in packed vertex attributes, the float32 one's in a texture.
-    assert f["prt"]["info"]["sources"] == ["packed", "packed"] and f["float"]["info"]["sources"] == ["texture"] * 2
+    assert f["prt"]["info"]["sources"] == ["texture"] * 2 and f["float"]["info"]["sources"] == ["texture"] * 2
+    assert f["packed"]["info"]["sources"] == ["packed", "packed"]
     for name in ("prt", "float"):
         assert f[name]["prt"] and not errors[name], said[name]
         assert all(m["prt"] for m in f[name]["meshes"]) and len(f[name]["meshes"]) == 2, f[name]

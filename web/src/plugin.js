@@ -21,8 +21,9 @@ function say(level, message) {
 
 export class PRTLightingPlugin {
   /** options: {exposure (stops; default the file's), maxTextureSize (default 4096), quiet (no
-   * message for a glTF without PRT data), transferSource ('auto', default: a quantised transfer
-   * in packed vertex attributes when it fits, else a texture; 'texture': always the texture)}. */
+   * message for a glTF without PRT data), transferSource ('texture', the default: the decoded
+   * transfer in a float texture; 'packed': a quantised transfer's integers in packed vertex
+   * attributes when they fit, half the GPU memory, slower in software WebGL: docs/export.md)}. */
   constructor(parser, options = {}) {
     this.parser = parser;
     this.options = options;
@@ -61,7 +62,7 @@ export class PRTLightingPlugin {
       try {
         const spec = readTransfer(transfer, object.geometry);
         if (!sources.has(object.geometry)) {
-          const packed = this.options.transferSource === 'texture' ? null : packedTransferSource(object.geometry, spec);
+          const packed = this.options.transferSource === 'packed' ? packedTransferSource(object.geometry, spec) : null;
           sources.set(
             object.geometry,
             packed || geometryTransferSource(object.geometry, spec, this.options.maxTextureSize),

@@ -2,7 +2,7 @@
 //
 //   node web/tools/plugin_headless.mjs JOB.json
 //
-// JOB.json: {"chromium": executable, "out": prefix, "files": [{"name", "glb", "plugin": true}],
+// JOB.json: {"chromium": executable, "out": prefix, "files": [{"name", "glb", "plugin": true, "options"}],
 //   "renders": [{options of pluginTest.render}]}. Writes PREFIX_<i>.bin per render (float32 or
 // uint8 RGBA, top row first) and prints a JSON summary: per file what the loader made of it and
 // the console messages its load printed, per render its file, and every request made.
@@ -37,10 +37,11 @@ await withPage(job.chromium, path.dirname(job.out), summary, async (page) => {
     const data = fs.readFileSync(file.glb).toString('base64');
     try {
       summary.files[file.name] = await page.evaluate(
-        (n, d, p) => window.pluginTest.load(n, d, p),
+        (n, d, p, o) => window.pluginTest.load(n, d, p, o),
         file.name,
         data,
         file.plugin !== false,
+        file.options || {},
       );
     } catch (error) {
       summary.files[file.name] = { error: String(error.message || error) };

@@ -1,6 +1,7 @@
 // A three.js app page for the tests: the plugin's files loaded beside the app's own objects, lights and tone mapping; window.pluginTest.
 //
-// load(name, base64, plugin) parses a .glb with GLTFLoader (with PRTLightingPlugin or without);
+// load(name, base64, plugin, options) parses a .glb with GLTFLoader (with PRTLightingPlugin and
+// its options, or without);
 // render(options) draws the app's scene (optionally an ordinary lit sphere, the app's lights, the
 // file, its background) into a float target (linear, no tone mapping) or to the canvas (the
 // renderer's tone mapping and sRGB output) and returns the RGBA pixels as base64 (float32 or
@@ -27,12 +28,12 @@ function flip(pixels, width, height, channels) {
   return out;
 }
 
-async function load(name, base64, plugin = true) {
+async function load(name, base64, plugin = true, options = {}) {
   const binary = atob(base64);
   const bytes = new Uint8Array(binary.length);
   for (let i = 0; i < binary.length; i++) bytes[i] = binary.charCodeAt(i);
   const loader = new GLTFLoader();
-  if (plugin) loader.register((parser) => new PRTLightingPlugin(parser));
+  if (plugin) loader.register((parser) => new PRTLightingPlugin(parser, options));
   const gltf = await loader.parseAsync(bytes.buffer, '');
   const background = gltf.userData.prt ? await gltf.userData.prt.createBackground() : null;
   files[name] = { gltf, background };

@@ -12,8 +12,9 @@ export interface PRTLightingOptions {
   maxTextureSize?: number;
   /** No console message for a glTF without PRT data. */
   quiet?: boolean;
-  /** 'auto' (default): a quantised transfer in packed vertex attributes when it fits, else a texture. */
-  transferSource?: 'auto' | 'texture';
+  /** 'texture' (default): the decoded transfer in a float texture; 'packed': a quantised transfer's
+   * integers in packed vertex attributes when they fit (half the GPU memory). */
+  transferSource?: 'texture' | 'packed';
 }
 
 export interface PRTInfo {
