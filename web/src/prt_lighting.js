@@ -65,6 +65,7 @@ export class PRTLighting {
         source,
         views: this.views.length,
         samples,
+        layout: this.views.map((view) => ({ count: view.samples.length, wide: view.wide })),
         albedo,
         shared: this.shared,
         channels: spec.channels,

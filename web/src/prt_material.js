@@ -92,17 +92,6 @@ vec2 vogel(int i, int n) {
   return r * vec2(cos(a), sin(a));
 }
 
-float viewCosine(vec3 n, int v) {
-  int first = int(sunRange[v].x);
-  int count = int(sunRange[v].y);
-  float sum = 0.0;
-  for (int j = first; j < first + count; j++) {
-    vec4 s = sunSamples[j];
-    sum += s.w * max(dot(n, s.xyz), 0.0);
-  }
-  return sum;
-}
-
 float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pcfTaps) {
   vec4 p = vec4(worldPos, 1.0);
   vec3 q = vec3(dot(sunRows[3 * v], p), dot(sunRows[3 * v + 1], p), dot(sunRows[3 * v + 2], p));
@@ -143,27 +132,34 @@ float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pc
 }
 `;
 
-const SUN_LOOP = (views) => `  vec3 n = normalize(nrmMatrix * localNrm);
-  vec3 sun = vec3(0.0);
-  for (int v = 0; v < ${views}; v++) {
-    float c = viewCosine(n, v);
-    if (c > 0.0) {
-      float vis = !useShadows ? 1.0
-        : sunRange[v].w > 0.5 ? viewVisibility(wideMaps, v, n, ${WIDE_BLOCKER_TAPS}, ${WIDE_PCF_TAPS})
-        : viewVisibility(sharpMaps, v, n, ${BLOCKER_TAPS}, ${PCF_TAPS});
-      sun += sunPower[v].rgb * (c * vis);
-    }
-  }
-  color += surfaceAlbedo * sun;`;
+// The views written out one by one (layout: per view {count of samples, wide}, fixed per file), so
+// that every uniform index is a constant: software WebGL (SwiftShader) indexes uniform arrays by
+// a variable slowly. The same sums as Blender's view_cosine over each view's own samples.
+function sunLoop(layout) {
+  const lines = ['  vec3 n = normalize(nrmMatrix * localNrm);', '  vec3 sun = vec3(0.0);', '  float c;'];
+  let first = 0;
+  layout.forEach(({ count, wide }, v) => {
+    lines.push('  c = 0.0;');
+    for (let j = first; j < first + count; j++)
+      lines.push(`  c += sunSamples[${j}].w * max(dot(n, sunSamples[${j}].xyz), 0.0);`);
+    first += count;
+    const visibility = wide
+      ? `viewVisibility(wideMaps, ${v}, n, ${WIDE_BLOCKER_TAPS}, ${WIDE_PCF_TAPS})`
+      : `viewVisibility(sharpMaps, ${v}, n, ${BLOCKER_TAPS}, ${PCF_TAPS})`;
+    lines.push(`  if (c > 0.0) sun += sunPower[${v}].rgb * (c * (useShadows ? ${visibility} : 1.0));`);
+  });
+  lines.push('  color += surfaceAlbedo * sun;');
+  return lines.join('\n');
+}
 
-const FRAGMENT = (views, samples) => `
+const FRAGMENT = (views, samples, layout) => `
 uniform float exposureScale;
 varying vec3 radiance;
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 ${views ? SUN_FUNCTIONS(views, samples) : ''}
 void main() {
   vec3 color = radiance;
-${views ? SUN_LOOP(views) : ''}
+${views ? sunLoop(layout) : ''}
   gl_FragColor = vec4(color * exposureScale, 1.0);
   #include <tonemapping_fragment>
   #include <colorspace_fragment>
@@ -172,9 +168,19 @@ ${views ? SUN_LOOP(views) : ''}
 
 /** A ShaderMaterial for a transfer source (transfer_source.js: `count` vec4s per block, 1 + `channels`
  * blocks), `views` shadow views holding `samples` samples in all (0: no split lights), a bounced
- * transfer of `channels` channels (0: none), shared uniforms passed in; `side` as three.js's
+ * transfer of `channels` channels (0: none), shared uniforms passed in; `layout` per view {count
+ * of its samples, wide} (in the order of the shared uniforms); `side` as three.js's
  * (the plugin passes the glTF material's: doubleSided or not). */
-export function prtMaterial({ source, views = 0, samples = 0, albedo, shared, channels = 0, side = THREE.DoubleSide }) {
+export function prtMaterial({
+  source,
+  views = 0,
+  samples = 0,
+  layout = [],
+  albedo,
+  shared,
+  channels = 0,
+  side = THREE.DoubleSide,
+}) {
   if (source.stage !== 'vertex') throw new Error(`a '${source.stage}' transfer source is not supported yet`);
   const count = source.count;
   const vec4s = () => ({ value: Array.from({ length: 3 * count }, () => new THREE.Vector4()) });
@@ -197,7 +203,7 @@ export function prtMaterial({ source, views = 0, samples = 0, albedo, shared, ch
   return new THREE.ShaderMaterial({
     uniforms,
     vertexShader: VERTEX(count, views, channels, source),
-    fragmentShader: FRAGMENT(views, samples),
+    fragmentShader: FRAGMENT(views, samples, layout),
     side,
   });
 }

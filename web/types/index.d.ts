@@ -90,9 +90,11 @@ export function prtMaterial(options: {
   source: TransferSource;
   views?: number;
   samples?: number;
+  layout?: { count: number; wide: boolean }[];
   albedo: [number, number, number];
   shared: Record<string, { value: unknown }>;
   channels?: number;
+  side?: number;
 }): ShaderMaterial;
 export function bandMatrices(r: ArrayLike<number>, order: number): Float64Array[];
 export function rotationMatrix(r: ArrayLike<number>, order: number): Float64Array;
