@@ -256,3 +256,47 @@ def _check_files(f):
     for name in ("newer_mesh", "missing"):  # one mesh unusable: it keeps its own material
         assert f[name]["prt"] is True
         assert sorted(m["prt"] for m in f[name]["meshes"]) == [False, True], f[name]
+
+
+def test_readme_example_runs(demo_scene, browser_tools, tmp_path):  # noqa: F811
+    """web/README.md's ten-line example, verbatim (bundled with 'prt-lighting-three' pointing at
+    web/src), served over HTTP with a scene.glb beside it, draws the scene with PRT and the world
+    behind, with nothing in the console. (The file has no split lights: their shadow maps would
+    only make the software renderer slower.)"""
+    import bpy
+
+    from prt_addon import api
+    from prt_addon.blender.display import lighting
+
+    lighting.set_lights_override(demo_scene, [])
+    try:
+        api.export_gltf(str(tmp_path / "scene.glb"))
+    finally:
+        lighting.set_lights_override(demo_scene, None)
+    job = tmp_path / "job.json"
+    job.write_text(
+        json.dumps({"chromium": browser_tools["chromium"], "dir": str(tmp_path), "width": 320, "height": 240})
+    )
+    run = subprocess.run(
+        ["node", os.path.join(ROOT, "web", "tools", "example_headless.mjs"), str(job)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env=dict(os.environ, PRT_NODE_MODULES=browser_tools["modules"]),
+    )
+    assert run.returncode == 0, run.stderr[-3000:]
+    summary = json.loads(run.stdout.strip().splitlines()[-1])
+    assert not summary["console"], summary["console"]
+    assert "/scene.glb" in summary["served"] and all(r.startswith("http://127.0.0.1:") for r in summary["requests"])
+    assert summary["draws"][1] > summary["draws"][0] > 0  # the animation loop runs
+    image = bpy.data.images.load(str(tmp_path / "example.png"))
+    try:
+        w, h = image.size
+        pixels = np.empty(w * h * image.channels, np.float32)
+        image.pixels.foreach_get(pixels)
+    finally:
+        bpy.data.images.remove(image)
+    rgb = pixels.reshape(h, w, -1)[::-1, :, :3]  # (row 0 the top)
+    sky, ground = rgb[: h // 8], rgb[-h // 8 :]
+    assert sky.std() > 0.02 and sky.mean() < 0.9  # the forest behind, not a flat clear colour
+    assert ground.mean() > 0.6 > sky.mean()  # the lit white ground in front of it
