@@ -176,6 +176,7 @@ def test_format_checks_say_what_is_wrong():
         ("lighting", dict(good_lighting, order=3), None, "declares order 3 but holds 4 coefficients"),
         ("lighting", dict(good_lighting, coefficients=[[0.1, "x", 0.3]] * 4), None, "not a list of [r, g, b] rows"),
         ("lighting", dict(good_lighting, lights=[dict(light, power=[1, 1])]), None, "light 0 lacks"),
+        ("lighting", dict(good_lighting, lights_coefficients="garbage"), None, "lights coefficients are not a list"),
         (
             "lighting",
             dict(good_lighting, lights=[dict(light, views=[{"direction": [0, 1, 0], "angle": 0.1, "samples": [3]}])]),

@@ -79,9 +79,11 @@ export function readLighting(meta) {
       `the lighting declares order ${meta.order} but holds ${order * order} coefficients (truncated?)`,
     );
   }
-  if (meta.lights_coefficients !== undefined && meta.lights_coefficients.length) {
-    checkRows(meta.lights_coefficients, 'the lights coefficients');
+  if (meta.lights_coefficients !== undefined && !Array.isArray(meta.lights_coefficients)) {
+    throw new FormatError('the lights coefficients are not a list');
   }
+  if (meta.lights_coefficients && meta.lights_coefficients.length)
+    checkRows(meta.lights_coefficients, 'the lights coefficients');
   const lights = meta.lights === undefined ? [] : meta.lights;
   if (!Array.isArray(lights)) throw new FormatError('the lights are not a list');
   lights.forEach(checkLight);

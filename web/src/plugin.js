@@ -8,7 +8,7 @@
 // (prefix "PRT Lighting:") and the scene still loads: without PRT when the lighting is missing,
 // newer or broken (gltf.userData.prt is then null), a mesh whose transfer is broken keeps its
 // own material.
-import { FormatError, readLighting, readTransfer } from './format.js';
+import { readLighting, readTransfer } from './format.js';
 import { geometryTransferSource, packedTransferSource } from './transfer_source.js';
 import { DEFAULT_ALBEDO, PRTLighting } from './prt_lighting.js';
 import { loadEnvironment } from './background.js';
@@ -40,7 +40,7 @@ export class PRTLightingPlugin {
     try {
       lighting = readLighting(meta);
     } catch (error) {
-      if (!(error instanceof FormatError)) throw error;
+      // (any error: a FormatError, or data too broken for the checks themselves)
       if (meta === undefined) {
         if (!this.options.quiet) say('info', error.message);
       } else say('error', `${error.message}; the scene is drawn without PRT`);
