@@ -22,6 +22,7 @@ pytestmark = [pytest.mark.blender, pytest.mark.gpu, pytest.mark.browser]
 
 WIDTH, HEIGHT = 320, 240  # the demo camera's 4:3, so the page frames it as Blender does
 # Background probes: a narrow camera high above the scene, looking along these glTF directions.
+SPIN = 0.7  # radians: the app turns the model about up by this
 PROBES = [(1.0, 0.3, 0.0), (0.0, 0.5, 1.0), (-1.0, 0.2, -0.4), (0.3, 0.9, -0.2), (-0.5, 0.1, 1.0), (0.7, 0.4, -1.0)]
 
 
@@ -127,6 +128,15 @@ def test_plugin_in_an_app_page(demo_scene, browser_tools, tmp_path, capsys):  # 
         dict(size, name="plain", target="screen", appLights=True),
         dict(size, name="plain_alone", target="screen", appLights=True),
     ]
+    # The app turns the model by SPIN about up, and the lighting and the camera with it.
+    camera = _file_camera(prt)
+    c, s_ = np.cos(SPIN), np.sin(SPIN)
+    spin = np.array([[c, 0.0, s_], [0.0, 1.0, 0.0], [-s_, 0.0, c]])
+    turned_camera = {k: (spin @ np.array(v)).tolist() if k != "fov" else v for k, v in camera.items()}
+    renders += [
+        dict(size, name="prt", camera=camera),
+        dict(size, name="prt", camera=turned_camera, spin=SPIN, turn=spin.ravel().tolist()),
+    ]
     probe = {"width": 8, "height": 8, "name": "prt", "background": True}
     for rotation in (None, turn):
         for d in PROBES:
@@ -193,8 +203,22 @@ def test_plugin_in_an_app_page(demo_scene, browser_tools, tmp_path, capsys):  # 
     # A glTF without PRT data: the plugin changes nothing.
     assert np.array_equal(images[5], images[6]) and (images[5][..., 3] > 0).mean() > 0.3
 
+    # The model, the lighting and the camera turned together: the same image (each node's light
+    # follows its world matrix, the shadow maps are fitted and drawn again).
+    still, spun = images[7], images[8]
+    file = tmp_path / "spun.f32"
+    spun.astype(np.float32).tofile(file)
+    moved = _compare(still, file, WIDTH, HEIGHT)
+    with capsys.disabled():
+        print(
+            f"model, lighting and camera turned together: mean {100 * moved['mean']:.3f} %, p99 {100 * moved['p99']:.3f} %"
+        )
+    assert moved["drawn"] > 0.3 and moved["mean"] < MEAN_TOLERANCE and moved["p99"] < P99_TOLERANCE, moved
+    assert moved["coverage"] < 0.002, moved
+    assert np.abs(still - images[0])[..., :3].max() < 1e-6 * level  # (the explicit camera is the file's)
+
     # The background is the world along each direction, turned with the lighting.
-    probes = np.array([im[..., :3].reshape(-1, 3).mean(axis=0) for im in images[7:]])
+    probes = np.array([im[..., :3].reshape(-1, 3).mean(axis=0) for im in images[9:]])
     unturned, turned = probes[: len(PROBES)], probes[len(PROBES) :]
     r = np.array(turn).reshape(3, 3)
     truth = _world_radiance(scene, PROBES)

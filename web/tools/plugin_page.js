@@ -3,7 +3,7 @@
 // load(name, base64, plugin, options) parses a .glb with GLTFLoader (with PRTLightingPlugin and
 // its options, or without);
 // render(options) draws the app's scene (optionally an ordinary lit sphere, the app's lights, the
-// file, its background) into a float target (linear, no tone mapping) or to the canvas (the
+// file turned by `spin` about up, its background) into a float target (linear, no tone mapping) or to the canvas (the
 // renderer's tone mapping and sRGB output) and returns the RGBA pixels as base64 (float32 or
 // bytes, top row first); describe(name) says what the loader made of the file's meshes.
 import * as THREE from 'three';
@@ -68,10 +68,12 @@ function render({
   background = false,
   turn = null,
   camera = null,
+  spin = 0,
 }) {
   const scene = new THREE.Scene();
   const file = name ? files[name] : null;
   if (file) {
+    file.gltf.scene.rotation.y = spin; // the app turning the model (about up, radians)
     scene.add(file.gltf.scene);
     if (background && file.background) scene.add(file.background);
     const prt = file.gltf.userData.prt;
