@@ -221,6 +221,7 @@ def export_gltf(
     objects: Sequence[bpy.types.Object] | None = None,
     scene: bpy.types.Scene | None = None,
     environment_size: int = 128,
+    transfer: str = "snorm16",
 ) -> str:
     """Write the baked objects (default: every baked mesh of the scene) and the scene's lighting
     to a binary glTF file `path` (.glb) through Blender's glTF exporter; returns the path.
@@ -229,7 +230,9 @@ def export_gltf(
     selection and active object are left as they were. Raises ValueError with a clear message
     (nothing baked, a stale bake, no lighting, a path that cannot be written); no file is left.
     environment_size: the face size (a power of two up to 256) of the world's prefiltered cube map
-    in EXT_lights_image_based, for viewers without PRT; 0 leaves the extension out."""
+    in EXT_lights_image_based, for viewers without PRT; 0 leaves the extension out.
+    transfer: "snorm16" (16-bit normalised with a scale and offset per component, the default),
+    "snorm8" or "float32" (docs/export.md)."""
     from .blender.export import gltf as _gltf
 
-    return _gltf.export_gltf(path, objects, scene, environment_size)
+    return _gltf.export_gltf(path, objects, scene, environment_size, transfer)

@@ -1,34 +1,35 @@
 #!/usr/bin/env bash
-# Install the node packages of the tests and the web viewer into build/node (or $1): the Khronos
-# glTF validator, three.js, esbuild (bundles the viewer), puppeteer-core (drives Chromium in
-# the viewer's test) and Babylon.js (core and glTF loaders: the reference loader of the export's
-# EXT_lights_image_based, tests/browser/test_babylon_ibl.py). Idempotent: when everything is in place it only checks, in well under 1 s.
+# Install the web package's node dependencies (web/package.json, pinned by web/package-lock.json)
+# into build/node (or $1) with `npm ci`; prints the node_modules path. They are three.js, esbuild
+# (bundles the viewer), ESLint, Prettier and TypeScript (the web lint and the API's types),
+# puppeteer-core (drives Chromium in the browser tests), the Khronos glTF validator and Babylon.js
+# (the reference loader of the export's EXT_lights_image_based, tests/browser/test_babylon_ibl.py).
+# Node.js and npm are installed with apt when missing (Debian's nodejs 18 is enough). Idempotent:
+# the install is redone only when the lockfile changed (its hash is kept beside node_modules).
+# web/node_modules is made a link to it, so the package's tools run in place.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 dest="${1:-$here/build/node}"
-for tool in node npm; do
-    command -v "$tool" >/dev/null || { echo "setup_node.sh: '$tool' not found (install Node.js and npm)" >&2; exit 2; }
-done
-# name@version pins: three's and esbuild's output is part of the committed behaviour; puppeteer-core
-# 24 is the last line that runs on Node.js 20 (25 needs 22). Babylon's core and loaders at the same
-# version (the loaders' newest; their peer babylonjs-gltf2interface with them).
-packages=(gltf-validator three@0.187.0 esbuild@0.28.2 puppeteer-core@24.43.1
-    @babylonjs/core@9.28.0 @babylonjs/loaders@9.28.0 babylonjs-gltf2interface@9.28.0)
-mkdir -p "$dest"
-missing=()
-for spec in "${packages[@]}"; do
-    name="${spec%@*}"
-    [ "$name" = "" ] && name="$spec"
-    want="${spec#"$name"}"; want="${want#@}"
-    manifest="$dest/node_modules/$name/package.json"
-    if [ ! -f "$manifest" ]; then
-        missing+=("$spec")
-    elif [ -n "$want" ] && ! grep -q "\"version\": *\"$want\"" "$manifest"; then
-        missing+=("$spec")
-    fi
-done
-if [ ${#missing[@]} -gt 0 ]; then
-    echo "setup_node.sh: installing ${missing[*]}" >&2
-    npm install --prefix "$dest" --no-audit --no-fund --silent "${missing[@]}" >&2
+as_root() { if [ "$(id -u)" = 0 ]; then "$@"; elif command -v sudo >/dev/null; then sudo "$@"; else return 1; fi; }
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
+    command -v apt-get >/dev/null || { echo "setup_node.sh: install Node.js (18.18 or later) and npm" >&2; exit 2; }
+    echo "setup_node.sh: installing Debian's nodejs and npm" >&2
+    as_root apt-get update -qq >&2 || { echo "setup_node.sh: cannot run apt-get (not root, no sudo): install nodejs and npm" >&2; exit 2; }
+    as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq nodejs npm >/dev/null
+fi
+lock="$here/web/package-lock.json"
+stamp="$dest/.package-lock.sha256"
+want="$(sha256sum "$lock" "$here/web/package.json" | sha256sum | cut -d' ' -f1)"
+if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ] || [ ! -d "$dest/node_modules" ]; then
+    echo "setup_node.sh: npm ci into $dest" >&2
+    mkdir -p "$dest"
+    rm -f "$stamp"
+    cp "$here/web/package.json" "$lock" "$dest/"
+    (cd "$dest" && npm ci --no-audit --no-fund --silent >&2)
+    echo "$want" >"$stamp"
+fi
+# The package's own tools (ESLint's config, node running src/) resolve from web/node_modules.
+if [ -L "$here/web/node_modules" ] || [ ! -e "$here/web/node_modules" ]; then
+    ln -sfn "$dest/node_modules" "$here/web/node_modules"
 fi
 echo "$dest/node_modules"

@@ -19,6 +19,7 @@ pytest_plugins = [
     "helpers.fixtures",
     "helpers.fixtures_bake",
     "helpers.fixtures_display",
+    "helpers.fixtures_export",
     "helpers.fixtures_web",
 ]
 

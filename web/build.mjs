@@ -84,7 +84,11 @@ try {
   } catch {
     // (no folder, so no file)
   }
-  const reasons = { EACCES: 'permission denied', EEXIST: 'a part of its folder is a file', ENOTDIR: 'a part of its folder is a file' };
+  const reasons = {
+    EACCES: 'permission denied',
+    EEXIST: 'a part of its folder is a file',
+    ENOTDIR: 'a part of its folder is a file',
+  };
   fail(`cannot write '${out}': ${reasons[error.code] || error.message}`);
 }
 console.log(out);

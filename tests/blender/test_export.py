@@ -8,32 +8,7 @@ import sys
 
 import numpy as np
 import pytest
-from helpers.gltf import VALIDATE_JS, _assert_rows_match, _from_gltf, _read_glb, _stored_rows, _world
-
-
-@pytest.fixture
-def baked(empty_scene, bpy_module):
-    """Ico sphere (smooth, POINT) on a grid (POINT), a flat cube (CORNER); lighting with a light."""
-    from prt_addon import api
-    from prt_addon.blender.scene import lighting
-    from prt_addon.core.lights.extraction import Light
-
-    bpy = bpy_module
-    _world(bpy)
-    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2, location=(0.0, 0.0, 1.0), rotation=(0.3, 0.5, 0.7))
-    sphere = bpy.context.object
-    sphere.data.shade_smooth()
-    bpy.ops.mesh.primitive_grid_add(size=4.0, x_subdivisions=6, y_subdivisions=6)
-    grid = bpy.context.object
-    bpy.ops.mesh.primitive_cube_add(size=0.6, location=(1.2, 0.8, 0.3), rotation=(0.0, 0.2, 1.0))
-    cube = bpy.context.object
-    cube.data.shade_flat()
-    api.project_world(order=4)
-    api.bake([sphere, grid], order=3, samples=64)
-    api.bake([cube], order=4, samples=64)
-    lighting.set_lights_override(empty_scene, [Light(np.array([0.0, 0.6, 0.8]), np.array([3.0, 2.0, 1.0]), 0.05)])
-    yield empty_scene, {"sphere": sphere, "grid": grid, "cube": cube}
-    lighting.clear_light_overrides()
+from helpers.gltf import VALIDATE_JS, _assert_rows_match, _from_gltf, _read_glb, _stored_rows, _transfer
 
 
 def _user_state(bpy):
@@ -58,17 +33,18 @@ def _user_state(bpy):
     return state
 
 
-def test_export_round_trip(baked, bpy_module, tmp_path):
-    from prt_addon import api
+@pytest.mark.parametrize("transfer", ["float32", "snorm16"])
+def test_export_round_trip(baked, bpy_module, tmp_path, transfer):
+    """The file holds each stored transfer row and position (float32 to 2e-5, the default snorm16
+    to its quantisation step), the lighting and its lights, and the user's data are untouched."""
     from prt_addon.blender.export import gltf
     from prt_addon.blender.world import projection
 
     bpy = bpy_module
     scene, objs = baked
     before = _user_state(bpy)
-    path = api.export_gltf(str(tmp_path / "scene.glb"))
-    assert os.path.isfile(path)
-    assert os.listdir(tmp_path) == ["scene.glb"]
+    path = gltf.export_gltf(str(tmp_path / "scene.glb"), transfer=transfer)
+    assert os.path.isfile(path) and os.listdir(tmp_path) == ["scene.glb"]
     assert _user_state(bpy) == before
     document, accessor = _read_glb(path)
     world = document["scenes"][0]["extras"]["PRT_lighting"]
@@ -101,21 +77,28 @@ def test_export_round_trip(baked, bpy_module, tmp_path):
             assert names == meta["attributes"] == [f"_PRT_T{k}" for k in range((order * order + 3) // 4)]
             assert all(document["accessors"][prim["attributes"][k]]["type"] == "VEC4" for k in names)
             assert not any(k.startswith("COLOR_") for k in prim["attributes"])
-            t_all.append(np.hstack([accessor(prim["attributes"][k]) for k in names])[:, : order * order])
+            t_all.append(_transfer(document, accessor, mesh, prim))
             p = accessor(prim["attributes"]["POSITION"]).astype(np.float64)
             pos_all.append(np.stack([p[:, 0], -p[:, 2], p[:, 1]], axis=1))
         stored_pos, stored_t = _stored_rows(obj)
-        _assert_rows_match(stored_pos, stored_t, np.vstack(pos_all), _from_gltf(np.vstack(t_all)))
+        assert meta["transfer_encoding"] == transfer and meta["version"] == (1 if transfer == "float32" else 2)
+        # snorm16: at most half a step (scale / 32767) per stored component, and the rotation back
+        # to Blender's frame mixes at most 2l + 1 <= 7 of them (orthogonal per band).
+        step = max(max(d["scale"]) for d in meta["decode"]) / 32767 if transfer != "float32" else 0.0
+        tol = 2e-5 + 0.5 * step * np.sqrt(7)
+        _assert_rows_match(stored_pos, stored_t, np.vstack(pos_all), _from_gltf(np.vstack(t_all)), tol=tol)
 
 
 def test_reimport_has_the_transfer(baked, bpy_module, tmp_path):
-    from prt_addon import api
+    """A float32 file imported by Blender's glTF importer has the transfer as attributes (a
+    quantised one would arrive as q / K: Blender's importer does not know the decode table)."""
+    from prt_addon.blender.export import gltf
 
     bpy = bpy_module
     _scene, objs = baked
     stored = {name: _stored_rows(obj) for name, obj in objs.items()}
     names = {name: obj.name for name, obj in objs.items()}
-    path = api.export_gltf(str(tmp_path / "scene.glb"))
+    path = gltf.export_gltf(str(tmp_path / "scene.glb"), transfer="float32")
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.import_scene.gltf(filepath=path)
     for key, (stored_pos, stored_t) in stored.items():

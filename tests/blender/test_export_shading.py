@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from helpers.gltf import _assert_rows_match, _read_glb, _world
+from helpers.gltf import _assert_rows_match, _read_glb, _transfer, _world
 
 
 def _node_matrix(node):
@@ -62,8 +62,9 @@ def test_shading_from_the_file_as_docs_say(empty_scene, bpy_module, tmp_path, sc
         lighting.clear_light_overrides()
     document, accessor = _read_glb(path)
     node = next(n for n in document["nodes"] if n["name"] == obj.name)
-    prim = document["meshes"][node["mesh"]]["primitives"][0]
-    t = np.hstack([accessor(prim["attributes"][f"_PRT_T{k}"]) for k in range(4)]).astype(np.float64)
+    mesh = document["meshes"][node["mesh"]]
+    prim = mesh["primitives"][0]
+    t = _transfer(document, accessor, mesh, prim)  # (decoded as docs/export.md says: snorm16 by default)
     world = np.array(document["scenes"][0]["extras"]["PRT_lighting"]["coefficients"])
     u, _s, vt = np.linalg.svd(_node_matrix(node))
     q = u @ vt

@@ -20,15 +20,31 @@ def _read_glb(path):
     binary = chunks[0][1]
 
     def accessor(index):
+        """The accessor's values: floats, or a normalised integer one's q / K (glTF's decoding)."""
         acc = document["accessors"][index]
         view = document["bufferViews"][acc["bufferView"]]
-        assert acc["componentType"] == 5126  # FLOAT
+        dtype, k = {5126: (np.float32, None), 5122: (np.int16, 32767), 5120: (np.int8, 127)}[acc["componentType"]]
+        assert (k is not None) == acc.get("normalized", False)
         width = COMPONENTS[acc["type"]]
         start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
-        assert view.get("byteStride", 4 * width) == 4 * width
-        return np.frombuffer(binary, np.float32, acc["count"] * width, start).reshape(-1, width)
+        assert view.get("byteStride", np.dtype(dtype).itemsize * width) == np.dtype(dtype).itemsize * width
+        values = np.frombuffer(binary, dtype, acc["count"] * width, start).reshape(-1, width)
+        return values if k is None else np.maximum(values.astype(np.float64) / k, -1.0)
 
     return document, accessor
+
+
+def _transfer(document, accessor, mesh, prim):
+    """A primitive's transfer (rows of n*n, glTF frame) decoded as docs/export.md says: float32
+    as stored, a quantised one as offset + scale * (q / K) per attribute and component."""
+    meta = mesh["extras"]["PRT_lighting"]
+    columns = []
+    for k, name in enumerate(meta["attributes"]):
+        values = accessor(prim["attributes"][name]).astype(np.float64)
+        if meta.get("transfer_encoding", "float32") != "float32":
+            values = np.asarray(meta["decode"][k]["offset"]) + np.asarray(meta["decode"][k]["scale"]) * values
+        columns.append(values)
+    return np.hstack(columns)[:, : meta["order"] ** 2]
 
 
 def _stored_rows(obj):

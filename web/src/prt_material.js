@@ -1,14 +1,15 @@
 // The PRT material: per-vertex max(0, sum_i L_i t_i) x albedo, plus the split lights per pixel.
 //
 // The same shading as Blender's display (prt_addon/blender/display/shader.py, shader_suns.py):
-// the transfer comes from an RGBA32F texture read with texelFetch at gl_VertexID (so any order
-// fits, whatever the vertex-attribute limit), the light is a uniform array of 3 * count vec4s
+// the transfer comes from a transfer source (transfer_source.js: fetch(k), the k-th vec4 from
+// packed integer attributes or a texture read at gl_VertexID), the light is a uniform array of 3 * count vec4s
 // (light[ch * count + k] = L_{4k..4k+3} of channel ch, in the node's local frame). The split
 // lights add albedo * sum_v P_v/pi * C_v * V_v per pixel over their shadow views (shadows.js):
 // C_v = sum_j w_j max(0, n.s_j) over the view's samples, V_v PCSS on the view's map over
 // Vogel-disc taps, the same filter as Blender's (fewer taps for a wide light's views). Output is
-// linear radiance, or with `display` set, radiance * 2^exposure through the sRGB curve
-// (Blender's "Standard" view).
+// linear radiance times exposureScale (2^stops), then three.js's own tone mapping and output
+// colour space (renderer.toneMapping, outputColorSpace; none when drawing into a render target):
+// NoToneMapping and sRGB output is Blender's "Standard" view.
 import * as THREE from 'three';
 import {
   BLOCKER_TAPS,
@@ -20,68 +21,41 @@ import {
   WIDE_PCF_TAPS,
 } from './shadows.js';
 
-const MAX_TEXTURE_WIDTH = 4096;
-
-/** RGBA32F DataTexture of the transfer: `count` texels per vertex, perRow vertices per row. */
-export function transferTexture(geometry, names, maxSize = MAX_TEXTURE_WIDTH) {
-  const count = names.length;
-  const vertices = geometry.attributes.position.count;
-  const perRow = Math.max(1, Math.floor(Math.min(MAX_TEXTURE_WIDTH, maxSize) / count));
-  const rows = Math.ceil(vertices / perRow);
-  if (rows > maxSize) {
-    throw new Error(
-      `a mesh of ${vertices} vertices at ${count * 4} coefficients needs a ${perRow * count}x${rows} ` +
-        `texture; this browser allows ${maxSize}x${maxSize} (split the mesh or bake a lower order)`,
+// The sum unrolled (k constant, so a source's fetch(k) can name an attribute). A bounced bake
+// (Blender's bake.md, "Interreflection") has `channels` more blocks of `count` vec4s after the
+// direct one, lit by bounceLight: the sky plus the split lights' SH. lightConstant and
+// bounceConstant are the parts of the sums a source folds out of the transfer (its decoding's
+// offsets, transfer_source.js; 0 for the texture source).
+function transferSum(count, channels, source) {
+  const lines = [];
+  const block = [0, 1, 2].map((c) => count * (1 + (channels === 3 ? c : 0)));
+  for (let k = 0; k < count; k++) {
+    lines.push(`  t = ${source.fetch(k)};`);
+    lines.push(`  r += vec3(dot(t, light[${k}]), dot(t, light[${count + k}]), dot(t, light[${2 * count + k}]));`);
+    if (!channels) continue;
+    const b = block.map((first) => (channels === 3 ? source.fetch(first + k) : 't1'));
+    if (channels === 1) lines.push(`  t1 = ${source.fetch(block[0] + k)};`);
+    lines.push(
+      `  r += vec3(dot(${b[0]}, bounceLight[${k}]), dot(${b[1]}, bounceLight[${count + k}]), dot(${b[2]}, bounceLight[${2 * count + k}]));`,
     );
   }
-  const width = perRow * count;
-  const data = new Float32Array(width * rows * 4);
-  names.forEach((name, k) => {
-    const attr = geometry.attributes[name.toLowerCase()] || geometry.attributes[name];
-    if (!attr || attr.itemSize !== 4) throw new Error(`the mesh has no VEC4 attribute ${name}`);
-    for (let v = 0; v < vertices; v++) {
-      const texel = (Math.floor(v / perRow) * width + (v % perRow) * count + k) * 4;
-      data[texel] = attr.getX(v);
-      data[texel + 1] = attr.getY(v);
-      data[texel + 2] = attr.getZ(v);
-      data[texel + 3] = attr.getW(v);
-    }
-  });
-  const texture = new THREE.DataTexture(data, width, rows, THREE.RGBAFormat, THREE.FloatType);
-  texture.minFilter = texture.magFilter = THREE.NearestFilter;
-  texture.generateMipmaps = false;
-  texture.needsUpdate = true;
-  return { texture, perRow };
+  return lines.join('\n');
 }
 
-// A bounced bake (Blender's bake.md, "Interreflection") has `channels` more blocks of `count`
-// vec4s after the direct one, lit by bounceLight: the sky plus the split lights' SH.
-const bounceLines = (count, channels) => {
-  if (!channels) return '';
-  const block = [0, 1, 2].map((c) => count * (1 + (channels === 3 ? c : 0)));
-  const fetch = (b) => `texelFetch(transferTx, ivec2(col + ${b} + k, row), 0)`;
-  return `    r += vec3(dot(${fetch(block[0])}, bounceLight[k]), dot(${fetch(block[1])}, bounceLight[${count} + k]),
-              dot(${fetch(block[2])}, bounceLight[${2 * count} + k]));`;
-};
-
-const VERTEX = (count, views, channels) => `
-uniform sampler2D transferTx;
-uniform int perRow;
+const VERTEX = (count, views, channels, source) => `
+${source.glsl}
 uniform vec4 light[${3 * count}];
-${channels ? `uniform vec4 bounceLight[${3 * count}];` : ''}
+uniform vec3 lightConstant;
+${channels ? `uniform vec4 bounceLight[${3 * count}];\nuniform vec3 bounceConstant;` : ''}
 uniform vec3 albedo;
 uniform float scale;
 varying vec3 radiance;
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 void main() {
-  vec3 r = vec3(0.0);
-  int col = (gl_VertexID % perRow) * ${count * (1 + channels)};
-  int row = gl_VertexID / perRow;
-  for (int k = 0; k < ${count}; k++) {
-    vec4 t = texelFetch(transferTx, ivec2(col + k, row), 0);
-    r += vec3(dot(t, light[k]), dot(t, light[${count} + k]), dot(t, light[${2 * count} + k]));
-${bounceLines(count, channels)}
-  }
+  vec3 r = lightConstant${channels ? ' + bounceConstant' : ''};
+  vec4 t;
+  ${channels === 1 ? 'vec4 t1;' : ''}
+${transferSum(count, channels, source)}
   radiance = max(r, vec3(0.0)) * albedo * scale;
   vec4 wp = modelMatrix * vec4(position, 1.0);
 ${views ? '  surfaceAlbedo = albedo * scale;\n  worldPos = wp.xyz;\n  localNrm = normal;' : ''}
@@ -116,17 +90,6 @@ vec2 vogel(int i, int n) {
   float r = sqrt((float(i) + 0.5) / float(n));
   float a = float(i) * 2.3999632;
   return r * vec2(cos(a), sin(a));
-}
-
-float viewCosine(vec3 n, int v) {
-  int first = int(sunRange[v].x);
-  int count = int(sunRange[v].y);
-  float sum = 0.0;
-  for (int j = first; j < first + count; j++) {
-    vec4 s = sunSamples[j];
-    sum += s.w * max(dot(n, s.xyz), 0.0);
-  }
-  return sum;
 }
 
 float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pcfTaps) {
@@ -169,50 +132,66 @@ float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pc
 }
 `;
 
-const SUN_LOOP = (views) => `  vec3 n = normalize(nrmMatrix * localNrm);
-  vec3 sun = vec3(0.0);
-  for (int v = 0; v < ${views}; v++) {
-    float c = viewCosine(n, v);
-    if (c > 0.0) {
-      float vis = !useShadows ? 1.0
-        : sunRange[v].w > 0.5 ? viewVisibility(wideMaps, v, n, ${WIDE_BLOCKER_TAPS}, ${WIDE_PCF_TAPS})
-        : viewVisibility(sharpMaps, v, n, ${BLOCKER_TAPS}, ${PCF_TAPS});
-      sun += sunPower[v].rgb * (c * vis);
-    }
-  }
-  color += surfaceAlbedo * sun;`;
+// The views written out one by one (layout: per view {count of samples, wide}, fixed per file), so
+// that every uniform index is a constant: software WebGL (SwiftShader) indexes uniform arrays by
+// a variable slowly. The same sums as Blender's view_cosine over each view's own samples.
+function sunLoop(layout) {
+  const lines = ['  vec3 n = normalize(nrmMatrix * localNrm);', '  vec3 sun = vec3(0.0);', '  float c;'];
+  let first = 0;
+  layout.forEach(({ count, wide }, v) => {
+    lines.push('  c = 0.0;');
+    for (let j = first; j < first + count; j++)
+      lines.push(`  c += sunSamples[${j}].w * max(dot(n, sunSamples[${j}].xyz), 0.0);`);
+    first += count;
+    const visibility = wide
+      ? `viewVisibility(wideMaps, ${v}, n, ${WIDE_BLOCKER_TAPS}, ${WIDE_PCF_TAPS})`
+      : `viewVisibility(sharpMaps, ${v}, n, ${BLOCKER_TAPS}, ${PCF_TAPS})`;
+    lines.push(`  if (c > 0.0) sun += sunPower[${v}].rgb * (c * (useShadows ? ${visibility} : 1.0));`);
+  });
+  lines.push('  color += surfaceAlbedo * sun;');
+  return lines.join('\n');
+}
 
-const FRAGMENT = (views, samples) => `
-uniform bool display;
+const FRAGMENT = (views, samples, layout) => `
 uniform float exposureScale;
 varying vec3 radiance;
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 ${views ? SUN_FUNCTIONS(views, samples) : ''}
-vec3 srgb(vec3 c) {
-  c = clamp(c, 0.0, 1.0);
-  return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
-}
 void main() {
   vec3 color = radiance;
-${views ? SUN_LOOP(views) : ''}
-  gl_FragColor = display ? vec4(srgb(color * exposureScale), 1.0) : vec4(color, 1.0);
+${views ? sunLoop(layout) : ''}
+  gl_FragColor = vec4(color * exposureScale, 1.0);
+  #include <tonemapping_fragment>
+  #include <colorspace_fragment>
 }
 `;
 
-/** A ShaderMaterial for `count` transfer vec4s (per block), `views` shadow views holding `samples`
- * samples in all (0: no split lights) and a bounced transfer of `channels` channels (0: none)
- * (shared uniforms passed in). */
-export function prtMaterial({ count, views = 0, samples = 0, texture, perRow, albedo, shared, channels = 0 }) {
+/** A ShaderMaterial for a transfer source (transfer_source.js: `count` vec4s per block, 1 + `channels`
+ * blocks), `views` shadow views holding `samples` samples in all (0: no split lights), a bounced
+ * transfer of `channels` channels (0: none), shared uniforms passed in; `layout` per view {count
+ * of its samples, wide} (in the order of the shared uniforms); `side` as three.js's
+ * (the plugin passes the glTF material's: doubleSided or not). */
+export function prtMaterial({
+  source,
+  views = 0,
+  samples = 0,
+  layout = [],
+  albedo,
+  shared,
+  channels = 0,
+  side = THREE.DoubleSide,
+}) {
+  if (source.stage !== 'vertex') throw new Error(`a '${source.stage}' transfer source is not supported yet`);
+  const count = source.count;
   const vec4s = () => ({ value: Array.from({ length: 3 * count }, () => new THREE.Vector4()) });
   const uniforms = {
-    transferTx: { value: texture },
-    perRow: { value: perRow },
+    ...source.uniforms,
     light: vec4s(),
-    ...(channels ? { bounceLight: vec4s() } : {}),
+    lightConstant: { value: new THREE.Vector3() },
+    ...(channels ? { bounceLight: vec4s(), bounceConstant: { value: new THREE.Vector3() } } : {}),
     albedo: { value: new THREE.Vector3(...albedo) },
     scale: { value: 1.0 },
     nrmMatrix: { value: new THREE.Matrix3() },
-    display: shared.display,
     exposureScale: shared.exposureScale,
   };
   if (views) {
@@ -223,9 +202,9 @@ export function prtMaterial({ count, views = 0, samples = 0, texture, perRow, al
   }
   return new THREE.ShaderMaterial({
     uniforms,
-    vertexShader: VERTEX(count, views, channels),
-    fragmentShader: FRAGMENT(views, samples),
-    side: THREE.DoubleSide,
+    vertexShader: VERTEX(count, views, channels, source),
+    fragmentShader: FRAGMENT(views, samples, layout),
+    side,
   });
 }
 

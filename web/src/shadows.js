@@ -130,17 +130,27 @@ function arrayTarget(resolution, layers) {
   });
 }
 
-/** The shadow maps of a scene's views ({wide} per view, fixed): the two array targets (null when
- * no view needs one), each view's layer, the depth material, and update(directions). */
+/** The shadow maps of the views ({wide} per view, fixed) of `casters` (meshes, drawn through
+ * stand-ins that share their geometry, wherever the app puts the originals): the two array
+ * targets (null when no view needs one), each view's layer, the depth material, update(). */
 export class ShadowMaps {
-  constructor(renderer, scene, views) {
-    this.renderer = renderer;
-    this.scene = scene;
+  constructor(casters, views) {
+    this.casters = casters;
+    this.scene = new THREE.Scene();
+    this.proxies = casters.map((mesh) => {
+      const proxy = new THREE.Mesh(mesh.geometry);
+      proxy.matrixAutoUpdate = false;
+      proxy.matrixWorldAutoUpdate = false;
+      proxy.frustumCulled = false;
+      this.scene.add(proxy);
+      return proxy;
+    });
     const counts = [0, 0];
     this.placed = views.map(({ wide }) => ({ wide, layer: counts[wide ? 1 : 0]++ }));
     this.sharp = counts[0] ? arrayTarget(RESOLUTION, counts[0]) : null;
     this.wide = counts[1] ? arrayTarget(WIDE_RESOLUTION, counts[1]) : null;
-    this.box = new THREE.Box3().setFromObject(scene, true);
+    this.box = new THREE.Box3();
+    this.placedAt = null; // the casters' world matrices the box was fitted to
     this.material = new THREE.ShaderMaterial({
       uniforms: { clip: { value: new THREE.Matrix4() }, depthRow: { value: new THREE.Vector4() } },
       vertexShader: DEPTH_VERTEX,
@@ -150,10 +160,25 @@ export class ShadowMaps {
     this.camera = new THREE.Camera(); // (unused by the depth shader)
   }
 
-  /** Draw each view's map along its direction (same order as the views); returns per view
-   * {rows, texel, resolution, layer, wide}. */
-  update(directions) {
-    const renderer = this.renderer;
+  /** Whether a caster moved since the maps were drawn (their world matrices). */
+  moved() {
+    if (!this.placedAt) return true;
+    return this.casters.some((mesh, i) => !mesh.matrixWorld.equals(this.placedAt[i]));
+  }
+
+  /** The stand-ins at the casters' world matrices, the box (of every vertex) fitted again if they moved. */
+  place() {
+    if (!this.moved()) return;
+    this.casters.forEach((mesh, i) => this.proxies[i].matrixWorld.copy(mesh.matrixWorld));
+    this.box.makeEmpty();
+    for (const proxy of this.proxies) this.box.expandByObject(proxy, true);
+    this.placedAt = this.casters.map((mesh) => mesh.matrixWorld.clone());
+  }
+
+  /** Draw each view's map along its direction (same order as the views) with `renderer`; returns
+   * per view {rows, texel, resolution, layer, wide}. */
+  update(renderer, directions) {
+    this.place();
     const previous = {
       target: renderer.getRenderTarget(),
       color: renderer.getClearColor(new THREE.Color()),

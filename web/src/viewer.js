@@ -1,5 +1,9 @@
-// The PRT web viewer page: loads a PRT .glb (embedded, file input or drag-and-drop), draws it with
-// the PRT material, turns the lighting with the mouse; window.prtViewer is its scripting API.
+// The PRT web viewer page, a thin page on the plugin: loads a PRT .glb (embedded, file input or drop), draws it and its world, turns the lighting.
+//
+// GLTFLoader with PRTLightingPlugin (plugin.js) does the PRT; this page adds the world behind
+// (prt.createBackground()), the camera of the file, the mouse, the exposure slider and a
+// frame-time read-out (draw time to a finished frame, read back one pixel). window.prtViewer is
+// its scripting API.
 //
 // Left drag turns the lighting (about the world's up axis, and about the view's horizontal axis),
 // right drag orbits the camera, the wheel zooms, a double click resets both. window.prtViewer
@@ -7,7 +11,8 @@
 // no exposure, no view transform, top row first, as base64) and info(), for tests and scripts.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
-import { PRTScene, parseGLB } from './prt_scene.js';
+import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
+import { PRTLightingPlugin } from './index.js';
 
 const $ = (id) => document.getElementById(id);
 const TURN_PER_PIXEL = 0.01; // radians
@@ -18,11 +23,12 @@ function axisAngle(axis, angle) {
   const c = Math.cos(angle);
   const s = Math.sin(angle);
   const t = 1 - c;
+  // prettier-ignore
   return [
     t * x * x + c, t * x * y - s * z, t * x * z + s * y,
     t * x * y + s * z, t * y * y + c, t * y * z - s * x,
     t * x * z - s * y, t * y * z + s * x, t * z * z + c,
-  ]; // prettier-ignore
+  ];
 }
 
 function base64ToBuffer(text) {
@@ -44,7 +50,9 @@ class Viewer {
     this.canvas = canvas;
     this.renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
     this.renderer.setPixelRatio(window.devicePixelRatio || 1);
-    this.renderer.toneMapping = THREE.NoToneMapping; // the PRT material applies its own view transform
+    // Blender's "Standard" view: no tone mapping, the sRGB curve (three.js's output colour space).
+    this.renderer.toneMapping = THREE.NoToneMapping;
+    this.renderer.outputColorSpace = THREE.SRGBColorSpace;
     this.renderer.setClearColor(0x262626, 1);
     this.prt = null;
     this.camera = new THREE.PerspectiveCamera(40, 1, 0.05, 1000);
@@ -52,25 +60,42 @@ class Viewer {
     this.controls.mouseButtons = { LEFT: null, MIDDLE: THREE.MOUSE.PAN, RIGHT: THREE.MOUSE.ROTATE };
     this.controls.addEventListener('change', () => this.requestDraw());
     this.pending = false;
+    this.pixel = new Uint8Array(4);
+    this.frameTimes = [];
     this.bindPointer();
     window.addEventListener('resize', () => this.requestDraw());
   }
 
   async load(buffer) {
-    const gltf = await parseGLB(buffer);
-    if (this.prt && this.prt.shadows) this.prt.shadows.dispose();
-    this.prt = new PRTScene(gltf, this.renderer);
-    const exposure = Number((this.prt.lighting.view || {}).exposure || 0);
-    $('exposure').value = String(exposure);
-    this.setExposure(exposure);
+    const loader = new GLTFLoader().register((parser) => new PRTLightingPlugin(parser));
+    const gltf = await loader.parseAsync(buffer, '');
+    const prt = gltf.userData.prt;
+    if (!prt)
+      throw new Error(
+        'this .glb has no PRT lighting (export it with PRT Lighting: File > Export > PRT Lighting); see the console',
+      );
+    if (this.prt) this.prt.dispose();
+    this.scene = new THREE.Scene();
+    this.scene.add(gltf.scene);
+    this.prt = prt;
+    this.model = gltf.scene;
+    this.fileCamera = gltf.cameras && gltf.cameras.length ? gltf.cameras[0] : null;
+    this.background = await prt.createBackground();
+    if (this.background) this.scene.add(this.background);
+    $('exposure').value = String(prt.exposure);
+    this.setExposure(prt.exposure);
     this.resetView();
-    return this.prt.info();
+    return this.info();
+  }
+
+  info() {
+    return { ...this.prt.info(), camera: Boolean(this.fileCamera), background: Boolean(this.background) };
   }
 
   resetView() {
     const prt = this.prt;
-    const source = prt.camera;
-    const box = new THREE.Box3().setFromObject(prt.scene, true);
+    const source = this.fileCamera;
+    const box = new THREE.Box3().setFromObject(this.model, true);
     const centre = box.getCenter(new THREE.Vector3());
     if (source) {
       source.updateMatrixWorld(true);
@@ -92,12 +117,12 @@ class Viewer {
     this.controls.target.copy(this.camera.position).addScaledVector(forward, along);
     this.camera.updateProjectionMatrix();
     this.controls.update();
-    prt.setTurn([1, 0, 0, 0, 1, 0, 0, 0, 1]);
+    prt.setLightingRotation([1, 0, 0, 0, 1, 0, 0, 0, 1]);
     this.requestDraw();
   }
 
   setExposure(stops) {
-    if (this.prt) this.prt.shared.exposureScale.value = 2 ** stops;
+    if (this.prt) this.prt.setExposure(stops);
     $('exposure-value').textContent = `${Number(stops).toFixed(1)} EV`;
     this.requestDraw();
   }
@@ -117,7 +142,7 @@ class Viewer {
       const right = new THREE.Vector3(1, 0, 0).applyQuaternion(this.camera.quaternion);
       const yaw = axisAngle([0, 1, 0], dx * TURN_PER_PIXEL);
       const pitch = axisAngle([right.x, right.y, right.z], dy * TURN_PER_PIXEL);
-      this.prt.turnBy(multiply(yaw, pitch));
+      this.prt.rotateLightingBy(multiply(yaw, pitch));
       this.showTurn();
       this.requestDraw();
     });
@@ -129,7 +154,7 @@ class Viewer {
   }
 
   showTurn() {
-    const r = this.prt.turn;
+    const r = this.prt.getLightingRotation();
     const angle = Math.acos(Math.max(-1, Math.min(1, (r[0] + r[4] + r[8] - 1) / 2)));
     $('turn').textContent = `lighting turned by ${((angle * 180) / Math.PI).toFixed(0)}°`;
   }
@@ -156,18 +181,25 @@ class Viewer {
     this.camera.aspect = width / height;
     if (this.fileAspect) this.camera.fov = blenderFov(this.fileFov, this.fileAspect, this.camera.aspect);
     this.camera.updateProjectionMatrix();
-    this.prt.shared.display.value = true;
-    this.prt.prepare();
-    this.renderer.render(this.prt.scene, this.camera);
+    const started = performance.now();
+    this.renderer.render(this.scene, this.camera);
+    this.renderer
+      .getContext()
+      .readPixels(0, 0, 1, 1, WebGL2RenderingContext.RGBA, WebGL2RenderingContext.UNSIGNED_BYTE, this.pixel);
+    this.frameTimes.push(performance.now() - started);
+    if (this.frameTimes.length > 20) this.frameTimes.shift();
+    const sorted = this.frameTimes.slice().sort((a, b) => a - b);
+    $('frame-time').textContent = `frame ${sorted[sorted.length >> 1].toFixed(1)} ms`;
   }
 
   /** Linear float RGBA (w x h, top row first, base64 of float32) from the file's camera. */
   renderLinear(width, height) {
     const prt = this.prt;
     if (!prt) throw new Error('nothing loaded');
-    const camera = prt.camera ? prt.camera.clone() : this.camera.clone();
+    const source = this.fileCamera;
+    const camera = source ? source.clone() : this.camera.clone();
     camera.aspect = width / height;
-    if (prt.camera) camera.fov = blenderFov(prt.camera.fov, prt.camera.aspect, camera.aspect);
+    if (source) camera.fov = blenderFov(source.fov, source.aspect, camera.aspect);
     camera.updateProjectionMatrix();
     const target = new THREE.WebGLRenderTarget(width, height, {
       type: THREE.FloatType,
@@ -178,16 +210,18 @@ class Viewer {
     });
     const clear = [this.renderer.getClearColor(new THREE.Color()), this.renderer.getClearAlpha()];
     const pixels = new Float32Array(width * height * 4);
+    const exposure = prt.exposure;
     try {
-      prt.shared.display.value = false;
-      prt.prepare();
+      prt.setExposure(0); // (into a float target: no tone mapping, no output conversion)
+      if (this.background) this.background.visible = false;
       this.renderer.setRenderTarget(target);
       this.renderer.setClearColor(0x000000, 0);
       this.renderer.clear();
-      this.renderer.render(prt.scene, camera);
+      this.renderer.render(this.scene, camera);
       this.renderer.readRenderTargetPixels(target, 0, 0, width, height, pixels);
     } finally {
-      prt.shared.display.value = true;
+      prt.setExposure(exposure);
+      if (this.background) this.background.visible = true;
       this.renderer.setRenderTarget(null);
       this.renderer.setClearColor(...clear);
       target.dispose();
@@ -214,7 +248,8 @@ function blenderFov(fov, fileAspect, aspect) {
 
 function multiply(a, b) {
   const out = new Array(9).fill(0);
-  for (let i = 0; i < 3; i++) for (let j = 0; j < 3; j++) for (let k = 0; k < 3; k++) out[3 * i + j] += a[3 * i + k] * b[3 * k + j];
+  for (let i = 0; i < 3; i++)
+    for (let j = 0; j < 3; j++) for (let k = 0; k < 3; k++) out[3 * i + j] += a[3 * i + k] * b[3 * k + j];
   return out;
 }
 
@@ -246,7 +281,7 @@ function main() {
   $('file').addEventListener('change', (event) => event.target.files[0] && open(event.target.files[0]));
   $('exposure').addEventListener('input', (event) => viewer.setExposure(Number(event.target.value)));
   $('shadows').addEventListener('change', (event) => {
-    if (viewer.prt) viewer.prt.shared.useShadows.value = event.target.checked;
+    if (viewer.prt) viewer.prt.setShadows(event.target.checked);
     viewer.requestDraw();
   });
   document.addEventListener('dragover', (event) => event.preventDefault());
@@ -259,13 +294,14 @@ function main() {
     load: (buffer, name = 'file') => loadInto(viewer, buffer, name),
     loadBase64: (text, name = 'file') => loadInto(viewer, base64ToBuffer(text), name),
     setTurn: (matrix) => {
-      viewer.prt.setTurn(matrix);
+      viewer.prt.setLightingRotation(matrix);
       viewer.showTurn();
       viewer.requestDraw();
     },
-    turn: () => (viewer.prt ? viewer.prt.turn.slice() : null),
+    turn: () => (viewer.prt ? viewer.prt.getLightingRotation() : null),
     renderLinear: (width, height) => viewer.renderLinear(width, height),
-    info: () => (viewer.prt ? viewer.prt.info() : null),
+    info: () => (viewer.prt ? viewer.info() : null),
+    frameTime: () => viewer.frameTimes.slice(),
   };
   const embedded = $('prt-embedded');
   if (embedded && embedded.textContent.trim()) {

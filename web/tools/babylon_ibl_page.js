@@ -99,7 +99,10 @@ void main() { vec3 d = texelFetch(dirs, ivec2(gl_FragCoord.xy), 0).xyz; o = vec4
   gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
   gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, dirs.length, 1, 0, gl.RGBA, gl.FLOAT, data);
   gl.activeTexture(gl.TEXTURE0);
-  gl.bindTexture(gl.TEXTURE_CUBE_MAP, scene.environmentTexture.getInternalTexture()._hardwareTexture.underlyingResource);
+  gl.bindTexture(
+    gl.TEXTURE_CUBE_MAP,
+    scene.environmentTexture.getInternalTexture()._hardwareTexture.underlyingResource,
+  );
   const target = gl.createTexture();
   gl.activeTexture(gl.TEXTURE2);
   gl.bindTexture(gl.TEXTURE_2D, target);

@@ -30,13 +30,11 @@ await withPage(job.chromium, path.dirname(job.out), summary, async (page) => {
     return ext ? gl.getParameter(ext.UNMASKED_RENDERER_WEBGL) : gl.getParameter(gl.RENDERER);
   });
   if (!summary.renderer) throw new Error('no WebGL2 in this Chromium');
-  const load = job.glb
-    ? (text) => window.prtViewer.loadBase64(text, 'scene.glb')
-    : () => window.prtViewer.ready;
+  const load = job.glb ? (text) => window.prtViewer.loadBase64(text, 'scene.glb') : () => window.prtViewer.ready;
   const data = job.glb ? fs.readFileSync(job.glb).toString('base64') : null;
   try {
     summary.info = await page.evaluate(load, data);
-  } catch (error) {
+  } catch {
     summary.error = await page.evaluate(() => document.getElementById('message').textContent);
   }
   summary.loaded = (Date.now() - started) / 1000;

@@ -22,11 +22,12 @@ from ...core.sh import rotation as _rotation
 from ..scene import lighting as _lighting, storage
 from ..world import nodes as _nodes, projection as _world
 from ..world.nodes import WorldError
-from . import glb, ibl
+from . import glb, ibl, quantise
 
 ATTRIBUTE_PREFIX = "_PRT_T"
 EXTRAS_KEY = "PRT_lighting"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 1  # scene extras, and mesh extras of a float32 transfer (quantise.VERSION: quantised)
+DEFAULT_TRANSFER = "snorm16"  # docs/export.md, "Quantised transfer": chosen by size and error measured
 
 # Blender (Z up) to glTF (Y up) coordinates, as the exporter's export_yup: (x, y, z) -> (x, z, -y).
 BLENDER_TO_GLTF = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
@@ -93,6 +94,11 @@ def _plan(objects, scene):
         if state.status == "STALE":
             raise ExportError(
                 f"'{obj.name}': the bake is stale ({state.reason}), so the export would not match the mesh"
+            )
+        if state.bake is not None and state.bake.domain == "TEXEL":
+            raise ExportError(
+                f"'{obj.name}' is baked per texel, which the glTF export does not write yet: bake it per vertex "
+                "(Target: Vertices) to export it"
             )
         plan.append((obj, state.bake if state.status == "FRESH" else None))
     if not any(bake is not None for _o, bake in plan):
@@ -198,6 +204,7 @@ def mesh_extras(bake):
         "bounces": int(bake.record.get("bounces", 0)),
         "bounce_channels": int(bake.channels),
         "bounce_attributes": [attribute_name(k) for k in range(bake.count, bake.count * (1 + bake.channels))],
+        "transfer_encoding": "float32",  # quantise.quantise changes it (and version, and adds decode)
     }
 
 
@@ -303,11 +310,14 @@ def _run_exporter(path, meshes):
         raise ExportError(f"the glTF exporter failed: {error}") from None
 
 
-def export_gltf(path, objects=None, scene=None, environment_size=ibl.DEFAULT_SIZE):
+def export_gltf(path, objects=None, scene=None, environment_size=ibl.DEFAULT_SIZE, transfer=DEFAULT_TRANSFER):
     """Write the objects (default: the scene's baked meshes) to `path` (.glb); returns the path.
     environment_size: the EXT_lights_image_based cube map's mip-0 face size (a power of two),
-    0 to leave the extension out. Raises ExportError (a ValueError) with a user-facing message;
-    then no file is left."""
+    0 to leave the extension out. transfer: how the transfer is stored, "snorm16" (default),
+    "snorm8" or "float32" (quantise.TRANSFER_ENCODINGS). Raises ExportError (a ValueError) with a
+    user-facing message; then no file is left."""
+    if transfer not in quantise.TRANSFER_ENCODINGS:
+        raise ExportError(f"unknown transfer encoding '{transfer}' (one of {', '.join(quantise.TRANSFER_ENCODINGS)})")
     scene = bpy.context.scene if scene is None else scene
     if scene != bpy.context.scene:
         raise ExportError(f"only the current scene can be exported (not '{scene.name}'): switch to it first")
@@ -341,6 +351,7 @@ def export_gltf(path, objects=None, scene=None, environment_size=ibl.DEFAULT_SIZ
             raise ExportError("the glTF exporter did not write the file")
         document, chunks = glb.read(temp)
         _annotate(document, plan, world)
+        chunks = quantise.quantise(document, chunks, transfer, EXTRAS_KEY)
         if environment is not None:
             ibl.write(document, chunks, environment[0], environment[1], glb.CHUNK_BIN)
         glb.write(temp, document, chunks)

@@ -1,0 +1,139 @@
+// The PRT data of a .glb read and checked (docs/export.md): the scene's lighting, each mesh's transfer description.
+//
+// Every check throws a FormatError whose message says what is wrong, so that the plugin can log
+// it and load the scene without PRT (or the one mesh without it).
+
+export const SCENE_VERSION = 1; // the newest scene `PRT_lighting` this code reads
+export const MESH_VERSION = 2; // the newest mesh `PRT_lighting` (2: quantised transfer)
+// Transfer encodings (docs/export.md, "Quantised transfer"): K of glTF's normalised decoding.
+export const ENCODINGS = { float32: 0, snorm16: 32767, snorm8: 127 };
+
+export class FormatError extends Error {}
+
+const isNumber = (x) => typeof x === 'number' && Number.isFinite(x);
+const isVector = (x, n) => Array.isArray(x) && x.length === n && x.every(isNumber);
+
+function checkVersion(meta, newest, what) {
+  const version = meta.version === undefined ? 1 : meta.version;
+  if (!Number.isInteger(version) || version < 1)
+    throw new FormatError(`${what} has a bad version (${JSON.stringify(meta.version)})`);
+  if (version > newest) {
+    throw new FormatError(
+      `${what} is format version ${version}, newer than this plugin reads (${newest}): update prt-lighting-three`,
+    );
+  }
+  return version;
+}
+
+function checkRows(rows, what) {
+  if (!Array.isArray(rows) || !rows.every((row) => isVector(row, 3))) {
+    throw new FormatError(`${what} is not a list of [r, g, b] rows`);
+  }
+  const order = Math.round(Math.sqrt(rows.length));
+  if (order < 1 || order * order !== rows.length)
+    throw new FormatError(`${what} has ${rows.length} rows, not a square number`);
+  return order;
+}
+
+function checkLight(light, index) {
+  const what = `light ${index}`;
+  if (!light || typeof light !== 'object') throw new FormatError(`${what} is not an object`);
+  if (!isVector(light.direction, 3) || !isVector(light.power, 3) || !isNumber(light.angle)) {
+    throw new FormatError(`${what} lacks a direction, power or angle`);
+  }
+  if (light.samples != null) {
+    const k = Array.isArray(light.samples) ? light.samples.length : -1;
+    if (
+      k < 1 ||
+      !light.samples.every((s) => isVector(s, 3)) ||
+      !Array.isArray(light.weights) ||
+      light.weights.length !== k
+    ) {
+      throw new FormatError(`${what} has broken samples or weights`);
+    }
+  }
+  for (const view of light.views || []) {
+    if (!isVector(view.direction, 3) || !isNumber(view.angle))
+      throw new FormatError(`${what} has a broken shadow view`);
+    if (
+      view.samples != null &&
+      !(
+        Array.isArray(view.samples) &&
+        view.samples.every((j) => Number.isInteger(j) && j >= 0 && j < (light.samples || []).length)
+      )
+    ) {
+      throw new FormatError(`${what}'s shadow view indexes samples it does not have`);
+    }
+  }
+}
+
+/** The scene's lighting (scene extras PRT_lighting), checked; throws FormatError. */
+export function readLighting(meta) {
+  if (meta === undefined) throw new FormatError('this glTF has no PRT lighting (a plain glTF: loaded as it is)');
+  if (!meta || typeof meta !== 'object' || Array.isArray(meta))
+    throw new FormatError('the scene PRT_lighting block is not an object');
+  checkVersion(meta, SCENE_VERSION, 'the scene PRT lighting');
+  const order = checkRows(meta.coefficients, 'the lighting coefficients');
+  if (meta.order !== undefined && meta.order !== order) {
+    throw new FormatError(
+      `the lighting declares order ${meta.order} but holds ${order * order} coefficients (truncated?)`,
+    );
+  }
+  if (meta.lights_coefficients !== undefined && !Array.isArray(meta.lights_coefficients)) {
+    throw new FormatError('the lights coefficients are not a list');
+  }
+  if (meta.lights_coefficients && meta.lights_coefficients.length)
+    checkRows(meta.lights_coefficients, 'the lights coefficients');
+  const lights = meta.lights === undefined ? [] : meta.lights;
+  if (!Array.isArray(lights)) throw new FormatError('the lights are not a list');
+  lights.forEach(checkLight);
+  return { ...meta, order, lights };
+}
+
+/**
+ * A mesh's transfer description (mesh extras PRT_lighting) checked against its geometry:
+ * {order, count, names, channels, encoding, k, decode}; throws FormatError.
+ */
+export function readTransfer(meta, geometry) {
+  if (!meta || typeof meta !== 'object') throw new FormatError('its PRT_lighting block is not an object');
+  checkVersion(meta, MESH_VERSION, 'its PRT transfer');
+  const order = meta.order;
+  if (!Number.isInteger(order) || order < 1 || order > 32)
+    throw new FormatError(`it has a bad order (${JSON.stringify(order)})`);
+  const count = Math.ceil((order * order) / 4);
+  const names = meta.attributes;
+  if (!Array.isArray(names) || names.length !== count) {
+    throw new FormatError(
+      `order ${order} needs ${count} transfer attributes, it lists ${Array.isArray(names) ? names.length : 'none'}`,
+    );
+  }
+  const channels = meta.bounce_channels || 0;
+  const bounce = meta.bounce_attributes || [];
+  if (![0, 1, 3].includes(channels) || !Array.isArray(bounce) || bounce.length !== count * channels) {
+    throw new FormatError(`its bounced transfer is inconsistent (${channels} channels, ${bounce.length} attributes)`);
+  }
+  const all = names.concat(bounce);
+  const encoding = meta.transfer_encoding || 'float32';
+  if (!(encoding in ENCODINGS)) throw new FormatError(`its transfer encoding '${encoding}' is unknown`);
+  const k = ENCODINGS[encoding];
+  const decode = k ? meta.decode : null;
+  if (
+    k &&
+    !(
+      Array.isArray(decode) &&
+      decode.length === all.length &&
+      decode.every((d) => d && isVector(d.offset, 4) && isVector(d.scale, 4))
+    )
+  ) {
+    throw new FormatError(`its ${encoding} transfer has no complete decode table`);
+  }
+  const vertices = geometry.attributes.position ? geometry.attributes.position.count : 0;
+  const missing = all.filter((name) => {
+    const attr = geometry.attributes[String(name).toLowerCase()] || geometry.attributes[name];
+    return !attr || attr.itemSize !== 4 || attr.count !== vertices;
+  });
+  if (missing.length) {
+    throw new FormatError(`order ${order} needs the attributes ${missing.join(', ')}, missing or not VEC4 per vertex`);
+  }
+  return { order, count, names: all, channels, encoding, k, decode };
+}

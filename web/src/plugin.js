@@ -1,0 +1,97 @@
+// The GLTFLoader plugin: a PRT Lighting .glb comes out of the loader drawable with PRT (gltf.userData.prt).
+//
+//   loader.register((parser) => new PRTLightingPlugin(parser, { exposure, maxTextureSize }));
+//
+// afterRoot reads the scene's and each mesh's PRT_lighting extras (format.js), gives every baked
+// primitive the PRT material (its transfer through a transfer source, transfer_source.js) and
+// leaves every other mesh and material alone. What is wrong with a file is said in the console
+// (prefix "PRT Lighting:") and the scene still loads: without PRT when the lighting is missing,
+// newer or broken (gltf.userData.prt is then null), a mesh whose transfer is broken keeps its
+// own material.
+import { readLighting, readTransfer } from './format.js';
+import { geometryTransferSource, packedTransferSource } from './transfer_source.js';
+import { DEFAULT_ALBEDO, PRTLighting } from './prt_lighting.js';
+import { loadEnvironment } from './background.js';
+
+export const EXTRAS_KEY = 'PRT_lighting';
+
+function say(level, message) {
+  console[level](`PRT Lighting: ${message}`);
+}
+
+export class PRTLightingPlugin {
+  /** options: {exposure (stops; default the file's), maxTextureSize (default 4096), quiet (no
+   * message for a glTF without PRT data), transferSource ('texture', the default: the decoded
+   * transfer in a float texture; 'packed': a quantised transfer's integers in packed vertex
+   * attributes when they fit, half the GPU memory, slower in software WebGL: docs/export.md)}. */
+  constructor(parser, options = {}) {
+    this.parser = parser;
+    this.options = options;
+    this.name = 'PRT_lighting'; // (extras, not an extension: GLTFLoader calls afterRoot all the same)
+    this.prt = null;
+  }
+
+  async afterRoot(gltf) {
+    gltf.userData.prt = null;
+    const json = this.parser.json;
+    const scene = (json.scenes || [])[json.scene || 0] || {};
+    const meta = (scene.extras || {})[EXTRAS_KEY];
+    let lighting;
+    try {
+      lighting = readLighting(meta);
+    } catch (error) {
+      // (any error: a FormatError, or data too broken for the checks themselves)
+      if (meta === undefined) {
+        if (!this.options.quiet) say('info', error.message);
+      } else say('error', `${error.message}; the scene is drawn without PRT`);
+      return;
+    }
+    const baked = [];
+    const casters = [];
+    const sources = new Map(); // a geometry shared by several nodes: one transfer source
+    gltf.scene.updateMatrixWorld(true);
+    gltf.scene.traverse((object) => {
+      if (!object.isMesh) return;
+      casters.push(object);
+      const where = this.parser.associations.get(object);
+      if (!where || where.meshes === undefined) return;
+      const mesh = json.meshes[where.meshes];
+      const transfer = (mesh.extras || {})[EXTRAS_KEY];
+      if (transfer === undefined) return;
+      const name = mesh.name || `mesh ${where.meshes}`;
+      try {
+        const spec = readTransfer(transfer, object.geometry);
+        if (!sources.has(object.geometry)) {
+          const packed = this.options.transferSource === 'packed' ? packedTransferSource(object.geometry, spec) : null;
+          sources.set(
+            object.geometry,
+            packed || geometryTransferSource(object.geometry, spec, this.options.maxTextureSize),
+          );
+          for (const attr of spec.names) object.geometry.deleteAttribute(attr.toLowerCase());
+        }
+        const primitive = mesh.primitives[where.primitives] || {};
+        const color = object.material && object.material.color;
+        const albedo = primitive.material === undefined || !color ? DEFAULT_ALBEDO : [color.r, color.g, color.b];
+        object.frustumCulled = false; // (as before the plugin: the bounding box is the file's)
+        const side = object.material ? object.material.side : undefined; // (glTF's doubleSided)
+        baked.push({ object, spec, albedo, side, source: sources.get(object.geometry) });
+      } catch (error) {
+        // (a FormatError, or e.g. a transfer texture larger than the GPU allows)
+        say('error', `mesh '${name}': ${error.message}; drawn with its own material`);
+      }
+    });
+    if (!baked.length) {
+      say('warn', 'the file has PRT lighting but no mesh with a usable transfer: drawn without PRT');
+      return;
+    }
+    try {
+      this.prt = new PRTLighting({ lighting, baked, casters, exposure: this.options.exposure });
+    } catch (error) {
+      say('error', `${error.message}; the scene is drawn without PRT`);
+      for (const { object } of baked) object.frustumCulled = true;
+      return;
+    }
+    this.prt.environment = () => loadEnvironment(this.parser);
+    gltf.userData.prt = this.prt;
+  }
+}
