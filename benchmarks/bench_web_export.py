@@ -21,16 +21,16 @@ import tempfile
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-import bpy  # noqa: E402
-import numpy as np  # noqa: E402
+import bpy
+import numpy as np
 
-import prt_addon  # noqa: E402
-from prt_addon import api  # noqa: E402
-from prt_addon.blender.export import glb, gltf, quantise  # noqa: E402
-from prt_addon.core import frames, rotation  # noqa: E402
+import prt_addon
+from prt_addon import api
+from prt_addon.blender.export import glb, gltf, quantise
+from prt_addon.core import frames, rotation
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-import demo  # noqa: E402
+import demo
 
 COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
 TYPES = {5126: (np.float32, None), 5122: (np.int16, 32767), 5120: (np.int8, 127)}
