@@ -15,7 +15,7 @@ import numpy as np
 from ..scene import storage
 from ..scene.lighting import bounce_light_extra, exposure_scale, light_in_local_frame, world_light, world_lights
 from ..scene.materials import _slot_tints, display_settings, material_colour
-from . import colour, light_markers
+from . import colour, light_markers, texel_relight
 from .gpu_cache import ObjectState, _object_cache, _prune, clear_caches, get_mesh_entry
 from .shader import get_shader, light_ubo_bytes
 from .shader_suns import MAX_SUNS, suns_ubo_bytes, view_layout
@@ -96,7 +96,7 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
             _bind_suns(shader, state, suns, maps, mw)
         if entry.texel_grid is not None:
             shader.uniform_int("texel_grid", entry.texel_grid)
-            shader.uniform_sampler("transfer_tx", entry.texture)
+            shader.uniform_sampler("transfer_tx", _relit(state, entry, info.count))
         elif entry.texture is not None:
             shader.uniform_int("per_row", entry.per_row)
             shader.uniform_sampler("transfer_tx", entry.texture)
@@ -111,6 +111,18 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
             batch.draw(shader)
         drawn += 1
     return drawn
+
+
+def _relit(state, entry, count):
+    """The object's relit radiance texture, drawn again when the light or the bake changed."""
+    key = (state.light_key, id(entry))
+    if state.relit is None or state.relit.resolution != entry.texel_grid[0]:
+        state.relit = texel_relight.Relit(entry.texel_grid[0])
+        state.relit_key = None
+    if state.relit_key != key:
+        texel_relight.relight(state.relit, entry.texture, entry.texel_grid, count, state.ubo)
+        state.relit_key = key
+    return state.relit.texture
 
 
 def _bind_suns(shader, state, suns, maps, matrix_world):

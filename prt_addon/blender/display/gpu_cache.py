@@ -26,9 +26,11 @@ class MeshEntry:
 
 
 class ObjectState:
-    __slots__ = ("ubo", "light_key", "suns_ubo", "suns_bytes")
+    __slots__ = ("ubo", "light_key", "suns_ubo", "suns_bytes", "relit", "relit_key")
 
     def __init__(self):
+        self.relit = None  # texel_relight.Relit of a texel bake
+        self.relit_key = None  # the light and the entry it was relit for
         self.ubo = None
         self.light_key = None
         self.suns_ubo = None

@@ -64,17 +64,10 @@ def shader_mode(count, domain="POINT"):
     return "ATTR" if count <= MAX_ATTRIBUTE_TRANSFER else "TEXTURE"
 
 
-# A texel bake: the transfer image's tiles (scene.texel_storage) read per pixel with the bilinear
-# weights of a GPU's clamp-to-edge filter (texel centres at (i + 0.5) / res), as core's
-# lightmap.bilinear does, then dotted with the light; the vertex stage passes the albedo alone.
+# A texel bake: the relit radiance texture (texel_relight: max(sum_i L_i t_i, 0) per texel, made
+# once per lighting change) read per pixel with the bilinear weights of a GPU's clamp-to-edge
+# filter (texel centres at (i + 0.5) / res), as core's lightmap.bilinear does.
 _TEXEL_FUNCTION = """
-vec4 texel_tap(ivec2 tile, ivec2 a, ivec2 b, vec2 f)
-{
-  vec4 low = mix(texelFetch(transfer_tx, tile + a, 0), texelFetch(transfer_tx, tile + ivec2(b.x, a.y), 0), f.x);
-  vec4 high = mix(texelFetch(transfer_tx, tile + ivec2(a.x, b.y), 0), texelFetch(transfer_tx, tile + b, 0), f.x);
-  return mix(low, high, f.y);
-}
-
 vec3 texel_transfer()
 {
   int res = texel_grid.x;
@@ -82,12 +75,9 @@ vec3 texel_transfer()
   ivec2 a = ivec2(floor(p));
   ivec2 b = min(a + 1, ivec2(res - 1));
   vec2 f = p - vec2(a);
-  vec3 r = vec3(0.0);
-  for (int k = 0; k < %(count)d; k++) {
-    vec4 t = texel_tap(ivec2(k %% texel_grid.y, k / texel_grid.y) * res, a, b, f);
-    r += vec3(dot(t, light.c[k]), dot(t, light.c[%(count)d + k]), dot(t, light.c[%(twice)d + k]));
-  }
-  return max(r, vec3(0.0));
+  vec3 low = mix(texelFetch(transfer_tx, a, 0).rgb, texelFetch(transfer_tx, ivec2(b.x, a.y), 0).rgb, f.x);
+  vec3 high = mix(texelFetch(transfer_tx, ivec2(a.x, b.y), 0).rgb, texelFetch(transfer_tx, b, 0).rgb, f.x);
+  return mix(low, high, f.y);
 }
 """
 
@@ -98,7 +88,7 @@ def _texel_fragment(fragment, count):
     assert main in fragment and "display_transform(radiance" in fragment
     fragment = fragment.replace(main, main + "  vec3 prt_texel = texel_transfer();\n", 1)
     fragment = fragment.replace("display_transform(radiance", "display_transform(radiance * prt_texel", 1)
-    return _TEXEL_FUNCTION % {"count": count, "twice": 2 * count} + fragment
+    return _TEXEL_FUNCTION + fragment
 
 
 def _bounce_lines(fetch, k, count, channels):

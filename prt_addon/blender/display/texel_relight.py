@@ -1,0 +1,89 @@
+"""Texel bakes relit once per lighting change: each texel's max(sum_i L_i t_i, 0) into a texture the frame reads.
+
+A frame then reads one bilinear radiance per pixel instead of every coefficient tile's four
+texels (the per-pixel sum cost 6.8 times the vertex bake's frame on llvmpipe; docs/texels.md).
+The bilinear lookup of the clamped radiance is what `shade` gives per texel, looked up.
+"""
+
+import gpu
+
+from .. import caches
+
+_VERTEX = """
+void main()
+{
+  gl_Position = vec4(pos, 0.0, 1.0);
+}
+"""
+
+_FRAGMENT = """
+void main()
+{
+  ivec2 p = ivec2(gl_FragCoord.xy);
+  vec3 r = vec3(0.0);
+  for (int k = 0; k < %(count)d; k++) {
+    vec4 t = texelFetch(transfer_tx, ivec2(k %% tiles, k / tiles) * res + p, 0);
+    r += vec3(dot(t, light.c[k]), dot(t, light.c[%(count)d + k]), dot(t, light.c[%(twice)d + k]));
+  }
+  FragColor = vec4(max(r, vec3(0.0)), 1.0);
+}
+"""
+
+_programs = {}  # coefficient groups -> (shader, quad batch)
+
+
+@caches.on_clear
+def clear():
+    _programs.clear()
+
+
+def _program(count):
+    if count not in _programs:
+        from gpu_extras.batch import batch_for_shader
+
+        info = gpu.types.GPUShaderCreateInfo()
+        info.typedef_source(f"struct PRTLight {{ vec4 c[{3 * count}]; }};\n")
+        info.uniform_buf(0, "PRTLight", "light")
+        info.push_constant("INT", "res")
+        info.push_constant("INT", "tiles")
+        info.sampler(0, "FLOAT_2D", "transfer_tx")
+        info.vertex_in(0, "VEC2", "pos")
+        info.fragment_out(0, "VEC4", "FragColor")
+        info.vertex_source(_VERTEX)
+        info.fragment_source(_FRAGMENT % {"count": count, "twice": 2 * count})
+        shader = gpu.shader.create_from_info(info)
+        quad = batch_for_shader(shader, "TRI_STRIP", {"pos": ((-1, -1), (1, -1), (-1, 1), (1, 1))})
+        _programs[count] = (shader, quad)
+    return _programs[count]
+
+
+class Relit:
+    """One object's relit radiance: an RGBA32F texture of res x res texels and its framebuffer."""
+
+    __slots__ = ("texture", "framebuffer", "resolution")
+
+    def __init__(self, resolution):
+        self.resolution = resolution
+        self.texture = gpu.types.GPUTexture((resolution, resolution), format="RGBA32F")
+        self.framebuffer = gpu.types.GPUFrameBuffer(color_slots=(self.texture,))
+
+
+def relight(relit, transfer, grid, count, light_ubo):
+    """Draw max(sum_i L_i t_i, 0) of every texel of `transfer` (the bake's tiles; grid: (res,
+    tiles per row)) with the light of `light_ubo` (shader.light_ubo_bytes) into relit.texture."""
+    shader, quad = _program(count)
+    viewport = gpu.state.viewport_get()
+    depth_test = gpu.state.depth_test_get()
+    try:
+        with relit.framebuffer.bind():
+            gpu.state.viewport_set(0, 0, relit.resolution, relit.resolution)
+            gpu.state.depth_test_set("NONE")
+            shader.bind()
+            shader.uniform_block("light", light_ubo)
+            shader.uniform_int("res", grid[0])
+            shader.uniform_int("tiles", grid[1])
+            shader.uniform_sampler("transfer_tx", transfer)
+            quad.draw(shader)
+    finally:
+        gpu.state.depth_test_set(depth_test)
+        gpu.state.viewport_set(*viewport)
