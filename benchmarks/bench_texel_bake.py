@@ -11,7 +11,6 @@ import resource
 import statistics
 import subprocess
 import sys
-import threading
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -20,6 +19,7 @@ sys.path.insert(0, os.path.join(ROOT, "tests"))
 
 import bpy
 import numpy as np
+from bench_bake import raw_batches_seconds  # (benchmarks/: the same raw tracing)
 
 import prt_addon
 from prt_addon import api
@@ -56,18 +56,7 @@ def raw_seconds(objs, options, threads):
     job.close()
     parts = scene_parts.scene_parts(bpy.context.evaluated_depsgraph_get())
     occ = raytrace.EmbreeOccluder(*core_mesh.concatenate_parts(parts))
-
-    def work(i):
-        for o, d in batches[i::threads]:
-            occ.occluded(o, d)
-
-    pool = [threading.Thread(target=work, args=(i,)) for i in range(threads)]
-    t0 = time.perf_counter()
-    for t in pool:
-        t.start()
-    for t in pool:
-        t.join()
-    return time.perf_counter() - t0, sum(len(o) for o, _d in batches)
+    return raw_batches_seconds(occ, batches, threads), sum(len(o) for o, _d in batches)
 
 
 def speed(res, threads, repeats):

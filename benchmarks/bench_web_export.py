@@ -94,15 +94,7 @@ def draco_export(path):
     def with_draco(target, meshes):
         return bpy.ops.export_scene.gltf(
             filepath=target,
-            export_format="GLB",
-            use_selection=True,
-            export_attributes=True,
-            export_cameras=True,
-            export_extras=True,
-            export_yup=True,
-            export_apply=False,
-            export_animations=False,
-            export_all_vertex_colors=False,
+            **gltf.EXPORTER_OPTIONS,
             export_active_vertex_color_when_no_material=False,
             export_draco_mesh_compression_enable=True,
         )

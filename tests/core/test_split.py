@@ -2,28 +2,12 @@
 
 import numpy as np
 import pytest
+from helpers.occluders import WallOccluder
 
 from prt_addon.core.sh import analytic
 from prt_addon.core.sh.directions import make_directions
 from prt_addon.core.trace.raytrace import EMBREE_AVAILABLE, EmbreeOccluder
 from prt_addon.core.transfer import contact, quadrature as transfer, split
-
-
-class WallOccluder:
-    """A wall in the plane x = d, 0 <= z <= h, infinitely wide in y."""
-
-    name = "WALL"
-    max_threads = 2
-
-    def __init__(self, d, h):
-        self.d, self.h = d, h
-
-    def occluded(self, origins, directions):
-        o, w = origins.astype(np.float64), directions.astype(np.float64)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = (self.d - o[:, 0]) / w[:, 0]
-        z = o[:, 2] + t * w[:, 2]
-        return (w[:, 0] > 0) & (t > 0) & (z >= 0) & (z <= self.h)
 
 
 def _points(count, seed=0):

@@ -5,7 +5,7 @@ Pure numpy (+ embreex when installed), no bpy."""
 
 import numpy as np
 import pytest
-from helpers.occluders import CupOccluder, PlaneOccluder
+from helpers.occluders import CupOccluder, PlaneOccluder, WallOccluder
 from helpers.sampling import random_directions
 
 from prt_addon.core.sh import analytic, basis as sh, frames
@@ -17,23 +17,6 @@ from prt_addon.core.transfer import quadrature as transfer
 
 ORDER = 4
 Y00 = 1.0 / np.sqrt(4.0 * np.pi)
-
-
-class WallOccluder:
-    """A wall in the plane x = d, 0 <= z <= h, infinitely wide in y."""
-
-    name = "WALL"
-    max_threads = 2
-
-    def __init__(self, d, h):
-        self.d, self.h = d, h
-
-    def occluded(self, origins, directions):
-        o, w = origins.astype(np.float64), directions.astype(np.float64)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = (self.d - o[:, 0]) / w[:, 0]
-        z = o[:, 2] + t * w[:, 2]
-        return (w[:, 0] > 0) & (t > 0) & (z >= 0) & (z <= self.h)
 
 
 def cup_coeffs(order, alpha):

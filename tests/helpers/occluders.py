@@ -1,4 +1,4 @@
-"""Analytic occluders in pure numpy (a plane, a cup) with closed-form transfer."""
+"""Analytic occluders in pure numpy (a plane, a wall, a cup) with closed-form transfer."""
 
 import numpy as np
 
@@ -19,6 +19,23 @@ class PlaneOccluder:
         with np.errstate(divide="ignore", invalid="ignore"):
             t = ((self.point - o) @ self.normal) / denom
         return np.isfinite(t) & (t > 0)
+
+
+class WallOccluder:
+    """A wall in the plane x = d, 0 <= z <= h, infinitely wide in y."""
+
+    name = "WALL"
+    max_threads = 2
+
+    def __init__(self, d, h):
+        self.d, self.h = d, h
+
+    def occluded(self, origins, directions):
+        o, w = origins.astype(np.float64), directions.astype(np.float64)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (self.d - o[:, 0]) / w[:, 0]
+        z = o[:, 2] + t * w[:, 2]
+        return (w[:, 0] > 0) & (t > 0) & (z >= 0) & (z <= self.h)
 
 
 class CupOccluder:

@@ -33,6 +33,20 @@ DEFAULT_TRANSFER = "snorm16"  # docs/export.md, "Quantised transfer": chosen by 
 BLENDER_TO_GLTF = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
 
 
+# Blender's glTF exporter as the export runs it (the file path and the active-colour rule aside).
+EXPORTER_OPTIONS = {
+    "export_format": "GLB",
+    "use_selection": True,
+    "export_attributes": True,
+    "export_cameras": True,
+    "export_extras": True,
+    "export_yup": True,
+    "export_apply": False,
+    "export_animations": False,
+    "export_all_vertex_colors": False,
+}
+
+
 class ExportError(ValueError):
     """An export refused or failed, with a message for the user."""
 
@@ -294,17 +308,7 @@ def _run_exporter(path, meshes):
     )
     try:
         return bpy.ops.export_scene.gltf(
-            filepath=path,
-            export_format="GLB",
-            use_selection=True,
-            export_attributes=True,
-            export_cameras=True,
-            export_extras=True,
-            export_yup=True,
-            export_apply=False,
-            export_animations=False,
-            export_all_vertex_colors=False,
-            export_active_vertex_color_when_no_material=not active_is_transfer,
+            filepath=path, **EXPORTER_OPTIONS, export_active_vertex_color_when_no_material=not active_is_transfer
         )
     except RuntimeError as error:
         raise ExportError(f"the glTF exporter failed: {error}") from None

@@ -130,10 +130,6 @@ class SplitComputation:
         return self._part.iter_rays()
 
     def run(self, progress: Callable[[float], object] | None = None) -> TransferResult:
-        try:
-            while self.step():
-                if progress is not None:
-                    progress(self.fraction)
-        finally:
-            self.close()
+        """Compute everything (the part's own loop: its fraction is this one's)."""
+        self._part.run(progress)
         return self.result()
