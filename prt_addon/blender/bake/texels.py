@@ -19,7 +19,6 @@ LIGHTMAP_UV_NAME = "PRT Lightmap"  # the UV map a texel bake makes when the mesh
 DEFAULT_DENSITY = 20.0  # texels per metre of surface, when no resolution is given
 MIN_RESOLUTION = 8
 PACKING = 0.6  # the UV area Smart UV Project is expected to cover, for the first resolution guess
-GUTTER = 4  # texels filled around each chart (core.transfer.lightmap.dilate)
 
 
 @dataclass
@@ -31,7 +30,6 @@ class TexelGeometry:
     resolution: int
     samples: object  # core.transfer.texels.TexelSamples (world space)
     seams: object  # core.transfer.lightmap.SeamPairs
-    uv_fingerprint: str
     notes: list
 
 
@@ -142,7 +140,7 @@ def unwrap_ahead(objects, settings):
         if settings.target == "AUTO" and not len(mesh.vertices) < area * settings.texel_density**2 / 16.0:
             continue
         guess = settings.resolution or resolution_for(area, PACKING, settings.texel_density)
-        out[obj.name] = unwrap(obj, margin=min(0.2, 2.0 * GUTTER / guess))
+        out[obj.name] = unwrap(obj, margin=min(0.2, 2.0 * lightmap.GUTTER / guess))
     return out
 
 
@@ -185,22 +183,14 @@ def texel_geometry(plan, mesh_eval, positions, uv_map, resolution, density, unwr
     if samples.degenerate:
         notes.append(f"{samples.degenerate} faces of UV map '{uv_name}' have no UV area and are not baked")
     seams = lightmap.seam_pairs(vertices, uvs, normals=world_normals)  # (smooth edges only)
-    original = corner_uvs if created is not None else mesh_read.read_corner_uvs(mesh, uv_name)
-    fingerprint = mesh_read.uvs_fingerprint(original)
-    return TexelGeometry(uv_name, created, resolution, samples, seams, fingerprint, notes)
+    return TexelGeometry(uv_name, created, resolution, samples, seams, notes)
 
 
-def texel_image(samples, coeffs, seams, passes=GUTTER):
+def texel_image(samples, coeffs, seams):
     """(res, res, n*n) float32 transfer image of a texel bake: the covered texels' coefficients,
     the gutter filled around each chart, the two sides of every seam made to agree."""
-    res = samples.resolution
-    image = np.zeros((res * res, coeffs.shape[1]), dtype=np.float32)
-    image[samples.texels] = coeffs
-    covered = np.zeros(res * res, dtype=bool)
-    covered[samples.texels] = True
-    image = image.reshape(res, res, -1)
-    covered = covered.reshape(res, res)
-    image = lightmap.dilate(image, covered, passes)
+    covered = samples.covered()
+    image = lightmap.dilate(samples.image(np.asarray(coeffs, np.float32)), covered)
     image = lightmap.fix_seams(image, seams, covered)
     return np.asarray(image, dtype=np.float32)
 

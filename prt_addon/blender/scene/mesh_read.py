@@ -157,16 +157,11 @@ def read_corner_uvs(mesh, uv_name):
     return out.reshape(-1, 2)
 
 
-def uvs_fingerprint(corner_uvs):
-    """A hash of (corners, 2) UV coordinates as float32: a texel bake is stale once they change."""
-    h = hashlib.blake2b(digest_size=8)
-    h.update(np.ascontiguousarray(corner_uvs, dtype=np.float32).tobytes())
-    return h.hexdigest()
-
-
 def uv_fingerprint(mesh, uv_name):
-    """uvs_fingerprint of the mesh's UV map `uv_name`."""
-    return uvs_fingerprint(read_corner_uvs(mesh, uv_name))
+    """A hash of the UV map's coordinates: a texel bake is stale once they change."""
+    h = hashlib.blake2b(digest_size=8)
+    h.update(np.ascontiguousarray(read_corner_uvs(mesh, uv_name), dtype=np.float32).tobytes())
+    return h.hexdigest()
 
 
 def world_triangles(mesh, matrix4, positions=None):

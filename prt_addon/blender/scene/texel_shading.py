@@ -8,8 +8,6 @@ from ...core.transfer.mesh import matrix_to_numpy
 from . import mesh_read, texel_storage
 from .light_shading import RAYS_PER_LIGHT, scene_occluder
 
-GUTTER = 4  # the texels filled around each chart, as the bake fills them
-
 
 def texel_samples(obj_eval, bake):
     """The texel samples of a texel bake as the bake placed them (world space)."""
@@ -33,10 +31,8 @@ def sky_radiance(bake, light):
 def light_radiance(obj, depsgraph, lights, bake, rays_per_light=RAYS_PER_LIGHT):
     """(res, res, 3) radiance of the split lights per texel (white albedo): the mean over each
     texel's samples of P/pi max(0, n.s) V, shadowed as the bake was; the gutter filled."""
-    res = bake.resolution
-    out = np.zeros((res * res, 3))
     if not lights:
-        return out.reshape(res, res, 3)
+        return np.zeros((bake.resolution, bake.resolution, 3))
     obj_eval = obj.evaluated_get(depsgraph)
     samples = texel_samples(obj_eval, bake)
     record = bake.record
@@ -54,7 +50,4 @@ def light_radiance(obj, depsgraph, lights, bake, rays_per_light=RAYS_PER_LIGHT):
                 points, normals, lights, occluder, rays_per_light=rays, offset=offset
             )
         total += light_visibility.light_irradiance(normals, lights, visibility)
-    out[samples.texels] = total / count
-    covered = np.zeros(res * res, dtype=bool)
-    covered[samples.texels] = True
-    return lightmap.dilate(out.reshape(res, res, 3), covered.reshape(res, res), GUTTER)
+    return lightmap.dilate(samples.image(total / count), samples.covered())  # (the bake's gutter)

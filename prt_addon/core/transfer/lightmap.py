@@ -13,6 +13,7 @@ import numpy as np
 import numpy.typing as npt
 
 NEIGHBOURS = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx]
+GUTTER = 4  # texels filled around each chart by default (dilate's passes)
 SEAM_WEIGHT = 10.0  # weight of the seam term against the data term of a covered texel
 GUTTER_WEIGHT = 0.3  # data weight of an uncovered (gutter) texel: freer to meet the seam
 SAMPLES_PER_TEXEL = 2  # seam samples per texel of edge length (the longer side)
@@ -46,7 +47,7 @@ def bilinear(image: npt.ArrayLike, uv: npt.ArrayLike) -> np.ndarray:
     return np.einsum("nk,nkc->nc", weight, flat[index].astype(np.float64))
 
 
-def dilate(image: npt.ArrayLike, covered: npt.ArrayLike, passes: int = 4, rest: str = "nearest") -> np.ndarray:
+def dilate(image: npt.ArrayLike, covered: npt.ArrayLike, passes: int = GUTTER, rest: str = "nearest") -> np.ndarray:
     """image (H, W, C) with its uncovered texels filled: each of `passes` passes gives every
     unfilled texel with a filled 8-neighbour the mean of its filled 8-neighbours (a gutter of
     `passes` texels: every texel within Chebyshev distance `passes` of a covered one). The texels
