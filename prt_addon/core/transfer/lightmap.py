@@ -63,8 +63,11 @@ def dilate(image: npt.ArrayLike, covered: npt.ArrayLike, passes: int = GUTTER, r
     img3 = img.reshape(height, width, -1)
     cov = np.asarray(covered, dtype=bool).reshape(height, width)
     # A padded grid: the border ring is never filled nor open, so no bounds checks.
-    grid = np.zeros((height + 2, width + 2, img3.shape[2]))
-    grid[1:-1, 1:-1] = np.where(cov[:, :, None], img3, 0.0)
+    # (In the image's precision, float32 at least: a 2048 x 2048 order-8 map is 1 GiB a copy.)
+    grid = np.zeros((height + 2, width + 2, img3.shape[2]), dtype=np.result_type(img3.dtype, np.float32))
+    inner = grid[1:-1, 1:-1]
+    inner[...] = img3
+    inner[~cov] = 0.0
     filled2 = np.zeros((height + 2, width + 2), dtype=bool)
     filled2[1:-1, 1:-1] = cov
     open2 = np.zeros_like(filled2)

@@ -66,8 +66,9 @@ class TransferComputation:
     one is made, shut down by close()). surface: None or (vertices, triangles) of the points'
     own mesh, point_vertex the vertex of each point (None: point i is vertex i): each origin is
     also moved by `offset` into its own surface (inward_tangents), off the plane of a surface
-    that touches it (docs/bake.md, "Contacts"). subsets: point i sees only the directions
-    k = i mod subsets of the set (before the error groups' permutation; core.transfer.split).
+    that touches it (docs/bake.md, "Contacts"). accumulate: None, or a (P, n*n) float32 array
+    that each slice's t times accumulate_weight is added into (it is then self.coeffs: several
+    computations sum into one array without each keeping its own; core.transfer.split).
     """
 
     def __init__(
@@ -86,7 +87,8 @@ class TransferComputation:
         surface: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
         point_vertex: npt.ArrayLike | None = None,
         hit_sink: Callable[..., tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None,
-        subsets: int = 1,
+        accumulate: np.ndarray | None = None,
+        accumulate_weight: float = 1.0,
     ) -> None:
         if not isinstance(directions, DirectionSet):
             raise TypeError("directions must be a DirectionSet (core.sh.directions.make_directions)")
@@ -125,13 +127,12 @@ class TransferComputation:
         per_thread = max(1, self.chunk_rays // self.threads)
         accumulator_bytes = (groups + 3) * self.order * self.order * 8  # per point of a slice
         self.points_per_slice = max(1, per_thread * RAY_BYTES // (self.n_dirs * RAY_BYTES + accumulator_bytes))
-        # Point i sees only the directions k = i mod subsets (core.transfer.split); slices start
-        # at multiples of `subsets`, so a block's mask is one tile of the slice's pattern.
-        self.subsets = max(1, int(subsets))
-        self.points_per_slice = -(-self.points_per_slice // self.subsets) * self.subsets
-        self._subset_of = perm % self.subsets
         self.dir_block = min(self.n_dirs, per_thread)
-        self.coeffs = np.zeros((count, self.order * self.order), dtype=np.float32)
+        nn = self.order * self.order
+        if accumulate is not None and (accumulate.shape != (count, nn) or accumulate.dtype != np.float32):
+            raise ValueError(f"accumulate must be a ({count}, {nn}) float32 array")
+        self._accumulate_weight = float(accumulate_weight) if accumulate is not None else None
+        self.coeffs = np.zeros((count, nn), dtype=np.float32) if accumulate is None else accumulate
         self.error = np.zeros(count, dtype=np.float32)
         self.stats = TransferStats(points=count, candidate_rays=count * self.n_dirs)
         self.done = 0
@@ -155,6 +156,11 @@ class TransferComputation:
     @property
     def fraction(self) -> float:
         return self.done / self.total if self.total else 1.0
+
+    @property
+    def queued(self) -> int:
+        """Points whose slices are queued or done (the first not yet queued)."""
+        return max(self._next, self.done)
 
     def cancel(self) -> None:
         self._cancel = True
@@ -211,10 +217,6 @@ class TransferComputation:
         above = ws["above"][:size].reshape(n_pts, cols)
         np.greater(weight, 0.0, out=above)
         np.maximum(weight, 0.0, out=weight)
-        if self.subsets > 1:
-            mask = self._subset_mask(k0, k1)[:n_pts]
-            above &= mask
-            weight *= mask
         if not needs.any():  # unshadowed slice: nothing to trace
             empty = np.empty(0, dtype=_RAY16)
             return weight, int(np.count_nonzero(above)), np.empty(0, dtype=np.intp), empty, empty
@@ -228,15 +230,6 @@ class TransferComputation:
         origins = np.repeat(self.origins16[lo:hi], per_point)
         dirs = np.take(self._tiled_dirs(k0, k1), flat, out=ws["dirs"][: len(flat)])
         return weight, n_above, flat, origins, dirs
-
-    def _subset_mask(self, k0, k1):
-        """(points_per_slice, k1 - k0) bool: point i of a slice sees direction k (subsets > 1)."""
-        key = ("subset", k0, k1)
-        mask = self._tiles.get(key)
-        if mask is None:
-            rows = np.arange(self.points_per_slice) % self.subsets
-            mask = self._tiles[key] = rows[:, None] == self._subset_of[None, k0:k1]
-        return mask
 
     def _blocks(self):
         """(k0, k1) direction blocks of a slice, split at hit_end (bounced bakes)."""
@@ -362,7 +355,11 @@ class TransferComputation:
                 t, err, stats, entries = self._slice(a, b)
             if self.hit_sink is not None:  # (a callable: entries the sink could not make yet)
                 self.hits.extend(e() if callable(e) else e for e in entries)
-            self.coeffs[a:b] = t
+            if self._accumulate_weight is None:
+                self.coeffs[a:b] = t
+            else:
+                t *= self._accumulate_weight
+                self.coeffs[a:b] += t
             self.error[a:b] = err
             self.stats.add(stats)
             self.done = b

@@ -2,20 +2,24 @@
 
 A texel of a lightmap is an area, not a point: Cycles' image bake averages over its footprint. With
 S sample positions x_s per texel and the direction set split into S interleaved subsets
-D_s = {w_k : k = s mod S}, the texel's transfer is
+D_s = {w_k : k = s mod S}, the texel's transfer is the mean of the S subsets' own quadratures,
 
-    t_i = 4 pi / N sum_s sum_{w in D_s} T(x_s, w) y_i(w)
+    t_i = 1/S sum_s 4 pi / |D_s| sum_{w in D_s} T(x_s, w) y_i(w)
 
-(for |D_s| = N / S, the mean of the S subsets' own quadratures): the texel costs the N rays of
-one point, and where the S samples see the same (an open texel) t is exactly the full set's
-quadrature at a point. One TransferComputation traces all the samples, texel-major (sample s of
-texel p is point p S + s, which sees the subset s: its `subsets` mask); t is the sum over a
-texel's samples, its error estimate the root of the sum of their squared estimates.
+(= 4 pi / N sum_s sum_{w in D_s} ... for |D_s| = N / S): the texel costs the N rays of one point,
+and where the S samples see the same (an open texel) t is exactly the full set's quadrature at a
+point. Each subset is its own TransferComputation over sample s of every texel and only the
+directions D_s (so the horizon and the projection run over traced directions only), one after
+the other on the same threads, all adding into one float32 array (`accumulate`): the samples'
+own coefficients are never stored. The error estimate is the root of the sum of the subsets'
+squared estimates over S^2.
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -34,11 +38,6 @@ def direction_subsets(directions: DirectionSet, count: int) -> list[DirectionSet
         picked = np.ascontiguousarray(directions.directions[s::count])
         subsets.append(DirectionSet(directions.kind, len(picked), directions.seed, picked))
     return subsets
-
-
-def _interleave(values: np.ndarray) -> np.ndarray:
-    """(S, P, ...) -> (P S, ...): sample s of element p at row p S + s."""
-    return np.ascontiguousarray(np.swapaxes(values, 0, 1).reshape(-1, *values.shape[2:]))
 
 
 class SplitComputation:
@@ -62,19 +61,35 @@ class SplitComputation:
         if options.get("hit_sink") is not None:
             raise ValueError("a split computation keeps no hits (bounces are baked at points)")
         self.samples = min(len(positions), directions.count)
-        positions, normals = positions[: self.samples], normals[: self.samples]
         count = positions.shape[1]
-        for name in ("offset", "self_occludes"):
-            if name in options:
-                value = np.asarray(options[name])
-                if value.ndim == 1:
-                    value = np.broadcast_to(value, (self.samples, count))
-                options[name] = _interleave(value) if value.ndim == 2 else value
         self.order = order
         self._count = count
-        self._part = TransferComputation(
-            _interleave(positions), _interleave(normals), directions, order, subsets=self.samples, **options
-        )
+        per_sample = {}
+        for name in ("offset", "self_occludes"):
+            if name in options:
+                value = np.asarray(options.pop(name))
+                per_sample[name] = value if value.ndim == 2 else np.broadcast_to(value, (self.samples, count))
+        self._own_pool = options.get("pool") is None
+        if self._own_pool:
+            options["pool"] = ThreadPoolExecutor(max(1, int(options.get("threads", 2))), thread_name_prefix="prt-bake")
+        self._pool = options["pool"]
+        self.coeffs = np.zeros((count, order * order), dtype=np.float32)
+        self._parts = [
+            TransferComputation(
+                positions[s],
+                normals[s],
+                subset,
+                order,
+                accumulate=self.coeffs,
+                accumulate_weight=1.0 / self.samples,
+                **{name: value[s] for name, value in per_sample.items()},
+                **options,
+            )
+            for s, subset in enumerate(direction_subsets(directions, self.samples))
+        ]
+        self._current = 0
+        self._started: float | None = None
+        self._seconds = 0.0
         self.hits: list = []
 
     @property
@@ -83,53 +98,72 @@ class SplitComputation:
 
     @property
     def done(self) -> int:
-        return self._part.done // self.samples
+        return sum(part.done for part in self._parts) // self.samples
 
     @property
     def fraction(self) -> float:
-        return self._part.fraction
+        return sum(part.fraction for part in self._parts) / self.samples
 
     @property
     def stats(self) -> TransferStats:
-        """The counts of the texels' own rays: each sample's masked-out directions (those of the
-        other subsets) are neither candidates nor skipped."""
-        stats = TransferStats().add(self._part.stats)
-        masked = stats.candidate_rays - stats.candidate_rays // self.samples
+        stats = TransferStats()
+        for part in self._parts:
+            stats.add(part.stats)
         stats.points = self._count
-        stats.candidate_rays -= masked
-        stats.skipped_below_horizon -= masked * self._part.done // max(1, self._part.total)
+        stats.seconds = self._seconds
         return stats
 
     @property
-    def coeffs(self) -> np.ndarray:
-        per_sample = self._part.coeffs.reshape(self._count, self.samples, -1)
-        return per_sample.sum(axis=1, dtype=np.float64).astype(np.float32)  # (no float64 copy of all samples)
-
-    @property
     def error(self) -> np.ndarray:
-        per_sample = np.asarray(self._part.error, np.float64).reshape(self._count, self.samples)
-        return np.sqrt((per_sample**2).sum(axis=1)).astype(np.float32)
+        squares = np.zeros(self._count, np.float64)
+        for part in self._parts:
+            squares += np.square(part.error, dtype=np.float64)
+        return (np.sqrt(squares) / self.samples).astype(np.float32)
 
     def cancel(self) -> None:
-        self._part.cancel()
+        for part in self._parts:
+            part.cancel()
 
     def start(self) -> None:
-        self._part.start()
+        if self._started is None:
+            self._started = time.perf_counter()
+        self._parts[self._current].start()
 
     def step(self) -> bool:
-        return self._part.step()
+        self.start()
+        part = self._parts[self._current]
+        more = part.step()
+        following = self._current + 1 < len(self._parts)
+        if more and following and part.queued >= part.total:
+            self._parts[self._current + 1].start()  # (its slices queue behind the last ones: no thread waits)
+        elif not more and following:
+            self._current += 1
+            self._parts[self._current].start()
+            more = True
+        self._seconds = time.perf_counter() - (self._started or 0.0)
+        return more
 
     def close(self) -> None:
-        self._part.close()
+        for part in self._parts:
+            part.close()
+        if self._own_pool and self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
 
     def result(self) -> TransferResult:
         return TransferResult(self.coeffs, self.error, self.stats)
 
     def iter_rays(self) -> Iterator[tuple[np.ndarray, np.ndarray]]:
         """Every (origins, directions) batch traced, in the same order (benchmarks)."""
-        return self._part.iter_rays()
+        for part in self._parts:
+            yield from part.iter_rays()
 
     def run(self, progress: Callable[[float], object] | None = None) -> TransferResult:
-        """Compute everything (the part's own loop: its fraction is this one's)."""
-        self._part.run(progress)
+        """Compute everything; progress(fraction) after each chunk."""
+        try:
+            while self.step():
+                if progress is not None:
+                    progress(self.fraction)
+        finally:
+            self.close()
         return self.result()
