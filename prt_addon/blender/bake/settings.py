@@ -246,11 +246,12 @@ SAMPLES_PER_TEXEL = 4  # core.transfer.texels.SAMPLE_OFFSETS
 
 def texel_memory(resolution, order, samples_per_texel=SAMPLES_PER_TEXEL):
     """Bytes a texel bake of one object at resolution x resolution texels takes at its peak (every
-    texel covered): the samples (positions, normals, barycentrics, triangles: 80 bytes each), the
-    samples' float32 coefficients and their sum, the image with its gutter, seams and packed
-    tiles (measured: 4.8 GiB at 1024 x 1024, order 8, docs/texels.md)."""
+    texel covered): per sample, its position, normal, barycentrics and triangle and its ray
+    origin and unit normal in the quadrature (145 bytes); per coefficient, the texels' float32
+    sum (the samples add into it as they finish), the image with its gutter, seams and packed
+    tiles (21 bytes). Both fitted to the peaks measured in docs/texels.md."""
     texels = int(resolution) ** 2
-    return texels * (80 * samples_per_texel + 72 * order * order)
+    return texels * (145 * samples_per_texel + 21 * order * order)
 
 
 def memory_budget():

@@ -48,11 +48,15 @@ from .stats import Cancelled, TransferResult, TransferStats, error_calibration, 
 CHUNK_RAYS = 1 << 18
 SLICES_PER_THREAD = 4  # slices per step() and thread
 # Working memory per candidate ray (one point-direction pair of a slice): per-thread buffers
-# reused across slices, weight f64 (8), horizon mask (1), directions (16), hit indices (8); per
-# traced ray, the flat indices (8), origins (16), Embree's int32 result and the hit mask (5); the
+# reused across slices, weight f64 (8), horizon mask (1), directions (16), origins (16), point
+# and hit indices (8); per traced ray, the flat indices (8), Embree's int32 result and the hit
+# mask (5); the
 # tiled directions table (16, shared by the threads). Checked with tracemalloc in
 # tests/core/test_transfer_tracing.py.
 RAY_BYTES = 80
+# The last workspace made in each thread: the computations of one job (several objects, the
+# direction subsets of a texel bake) reuse it instead of touching fresh pages each.
+_THREAD = threading.local()
 
 
 class TransferComputation:
@@ -193,10 +197,15 @@ class TransferComputation:
         ws = getattr(self._local, "ws", None)
         if ws is None:
             size = self.points_per_slice * self.dir_block
-            ws = self._local.ws = {
+            shared = getattr(_THREAD, "ws", None)  # (a previous computation's, in this thread)
+            if shared is not None and len(shared["weight"]) >= size:
+                self._local.ws = shared
+                return shared
+            ws = self._local.ws = _THREAD.ws = {
                 "weight": np.empty(size),
                 "above": np.empty(size, dtype=bool),
                 "dirs": np.empty(size, dtype=_RAY16),
+                "origins": np.empty(size, dtype=_RAY16),
                 "index": np.empty(size, dtype=np.intp),
             }
         return ws
@@ -206,8 +215,8 @@ class TransferComputation:
 
         weight is max(0, n . w) (T * pi), (hi - lo, k1 - k0) float64; `flat` are the flat
         indices into weight of the rays to trace (above the horizon, at points that need rays),
-        point-major, and origins/dirs those rays as (n,) 16-byte rows (ray_rows). weight and
-        dirs are per-thread buffers, valid until the next call in the same thread.
+        point-major, and origins/dirs those rays as (n,) 16-byte rows (ray_rows). weight,
+        origins and dirs are per-thread buffers, valid until the next call in the same thread.
         """
         ws = self._workspace()
         n_pts, cols = hi - lo, k1 - k0
@@ -226,8 +235,10 @@ class TransferComputation:
             above[~needs] = False
             per_point[~needs] = 0
         flat = np.flatnonzero(above)
-        # Rays are point-major: each origin is repeated once per direction it traces.
-        origins = np.repeat(self.origins16[lo:hi], per_point)
+        # Rays are point-major: each origin is repeated once per direction it traces (a take()
+        # by flat // cols into a reused buffer: np.repeat's fresh array cost twice as much).
+        point = np.floor_divide(flat, cols, out=ws["index"][: len(flat)])
+        origins = np.take(self.origins16[lo:hi], point, out=ws["origins"][: len(flat)])
         dirs = np.take(self._tiled_dirs(k0, k1), flat, out=ws["dirs"][: len(flat)])
         return weight, n_above, flat, origins, dirs
 
