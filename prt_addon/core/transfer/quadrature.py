@@ -50,9 +50,7 @@ SLICES_PER_THREAD = 4  # slices per step() and thread
 # Working memory per candidate ray (one point-direction pair of a slice): per-thread buffers
 # reused across slices, weight f64 (8), horizon mask (1), directions (16), origins (16), point
 # and hit indices (8); per traced ray, the flat indices (8), Embree's int32 result and the hit
-# mask (5); the
-# tiled directions table (16, shared by the threads). Checked with tracemalloc in
-# tests/core/test_transfer_tracing.py.
+# mask (5). Checked with tracemalloc in tests/core/test_transfer_tracing.py.
 RAY_BYTES = 80
 # The last workspace made in each thread: the computations of one job (several objects, the
 # direction subsets of a texel bake) reuse it instead of touching fresh pages each.
@@ -140,7 +138,6 @@ class TransferComputation:
         self.error = np.zeros(count, dtype=np.float32)
         self.stats = TransferStats(points=count, candidate_rays=count * self.n_dirs)
         self.done = 0
-        self._tiles: dict[Any, Any] = {}
         self._local = threading.local()
         self._cancel = False
         self._pool = pool
@@ -179,7 +176,6 @@ class TransferComputation:
             self._pool = None
         # A job keeps every computation until it writes: drop the scratch buffers (~11 MB).
         self._local = threading.local()
-        self._tiles = {}
 
     def _needs_rays(self, lo, hi):
         if self.occluder is None:
@@ -237,24 +233,15 @@ class TransferComputation:
         flat = np.flatnonzero(above)
         # Rays are point-major: each origin is repeated once per direction it traces (a take()
         # by flat // cols into a reused buffer: np.repeat's fresh array cost twice as much).
-        point = np.floor_divide(flat, cols, out=ws["index"][: len(flat)])
-        origins = np.take(self.origins16[lo:hi], point, out=ws["origins"][: len(flat)])
-        dirs = np.take(self._tiled_dirs(k0, k1), flat, out=ws["dirs"][: len(flat)])
+        index = ws["index"][: len(flat)]
+        origins = np.take(self.origins16[lo:hi], np.floor_divide(flat, cols, out=index), out=ws["origins"][: len(flat)])
+        dirs = np.take(self.dirs16[k0:k1], np.remainder(flat, cols, out=index), out=ws["dirs"][: len(flat)])
         return weight, n_above, flat, origins, dirs
 
     def _blocks(self):
         """(k0, k1) direction blocks of a slice, split at hit_end (bounced bakes)."""
         edges = sorted({0, self.hit_end, self.n_dirs})
         return [(k, min(b, k + self.dir_block)) for a, b in zip(edges, edges[1:]) for k in range(a, b, self.dir_block)]
-
-    def _tiled_dirs(self, k0, k1):
-        """dirs16[k0:k1] repeated for points_per_slice points (shared by the threads): the
-        directions of a block's rays are one take() from it by flat index."""
-        key = (k0, k1)
-        tiled = self._tiles.get(key)
-        if tiled is None:
-            tiled = self._tiles[key] = np.tile(self.dirs16[k0:k1], self.points_per_slice)
-        return tiled
 
     def iter_rays(self) -> Iterator[tuple[np.ndarray, np.ndarray]]:
         """Every (origins, directions) batch the bake traces, in the same order (benchmarks),
