@@ -101,3 +101,21 @@ def test_a_face_lying_on_another_is_under_it_and_one_above_is_not():
     normals = np.array([[0, 0, -1], [0, 0, -1], [0, 0, 1], [0, 0, -1]], float)
     under = contact.under_other_surfaces(points, normals, offset, occluder, floor, tris)
     assert under.tolist() == [True, False, False, False]
+
+
+def test_computations_accumulating_into_one_array_give_the_mean_of_their_results():
+    """accumulate=: two computations adding t / 2 into one float32 array give the mean of their
+    own coefficients, and a wrongly shaped array is refused."""
+    (p0, n0), (p1, n1) = _points(50, seed=4), _points(50, seed=5)
+    dirs = make_directions("FIBONACCI", 128, seed=3)
+    wall = WallOccluder(0.2, 0.5)
+    own = [transfer.compute_transfer(p, n, dirs, 3, occluder=wall, threads=1).coeffs for p, n in ((p0, n0), (p1, n1))]
+    total = np.zeros((50, 9), np.float32)
+    for p, n in ((p0, n0), (p1, n1)):
+        comp = transfer.TransferComputation(
+            p, n, dirs, 3, occluder=wall, threads=1, accumulate=total, accumulate_weight=0.5
+        )
+        assert comp.run().coeffs is total
+    np.testing.assert_allclose(total, 0.5 * (own[0] + own[1]), rtol=0, atol=1e-6)
+    with pytest.raises(ValueError, match="accumulate"):
+        transfer.TransferComputation(p0, n0, dirs, 3, accumulate=np.zeros((50, 16), np.float32))
