@@ -16,7 +16,8 @@ what the quantisation adds to the viewer's image against api.render_view. With -
 ground is then baked per texel (R x R, into a copy of its UV map) and exported as PNG planes
 (blender/export/texels.py): bytes per texel and the per-texel radiance error of the 16- and 8-bit
 encodings (the viewer relights each texel and looks the texels up bilinearly, so that is what
-they add to its image).
+they add to its image). With --room R the same for the low-poly room of the texel tests, every
+object per texel at R x R (a lightmap busy with shadows and contacts).
 """
 
 import argparse
@@ -250,11 +251,59 @@ def texel_figures(scene, folder, order, samples, resolution):
     api.bake([ground], order=order, samples=samples)  # (per vertex again for the next order)
 
 
+def room_figures(folder, orders, samples, resolution):
+    """The low-poly room of the texel tests (tests/helpers/texel_scenes.py: every object per
+    texel, resolution^2 each, Smart UV Project lightmaps) under forest.exr: PNG bytes per texel
+    and the per-texel radiance error of each texel encoding."""
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
+    from helpers import texel_scenes
+
+    from prt_addon.blender.scene import storage, texel_storage
+    from prt_addon.core.transfer import texel_encoding
+
+    scene = demo.build_scene(demo.bundled_hdri_path("forest"))
+    for name in ("Suzanne", "Ground"):
+        bpy.data.objects.remove(scene.objects[name])
+    objects = texel_scenes.low_poly_room(bpy)
+    for order in orders:
+        api.project_world(order=order)
+        api.bake(objects, order=order, samples=samples, target="TEXELS", uv_map="Lightmap", resolution=resolution)
+        n2 = order * order
+        for transfer in ("snorm16", "snorm8"):
+            path = gltf.export_gltf(os.path.join(folder, f"room_o{order}_{transfer}.glb"), objects, transfer=transfer)
+            document, _chunks = glb.read(path)
+            lighting = np.array(document["scenes"][0]["extras"]["PRT_lighting"]["coefficients"])[:n2]
+            planes = sum(
+                document["bufferViews"][im["bufferView"]]["byteLength"]
+                for im in document["images"]
+                if im["name"].startswith("PRT_transfer")
+            )
+            encoding = texels.encoding_for(transfer)
+            truth, got = [], []
+            for obj in objects:
+                bake, _ = storage.read_bake_record(obj.data)
+                values = texel_storage.read_texel_transfer(bake).astype(np.float64).reshape(-1, n2)
+                values = gltf.to_gltf_frame(values.T).T
+                stored, offset, scale = texel_encoding.encode(values, texel_encoding.PLANES[encoding])
+                truth.append(np.maximum(values @ lighting, 0.0))
+                got.append(np.maximum(texel_encoding.decode(stored, offset, scale) @ lighting, 0.0))
+            truth, got = np.concatenate(truth), np.concatenate(got)
+            diff = np.abs(got - truth).max(axis=1) / truth.mean()
+            texel_count = len(objects) * resolution**2
+            print(
+                f"  room ({len(objects)} objects at {resolution}^2), order {order}, {encoding}: "
+                f"{planes / texel_count:.1f} PNG bytes/texel (raw planes {2 * n2 if '16' in encoding else n2}); "
+                f"radiance error mean / p99 / max {100 * diff.mean():.4f} / {100 * np.percentile(diff, 99):.4f} / "
+                f"{100 * diff.max():.4f} % of the mean"
+            )
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--orders", type=int, nargs="+", default=[4, 8])
     parser.add_argument("--samples", type=int, default=64)
     parser.add_argument("--texels", type=int, default=256, help="the ground's texel bake resolution (0: none)")
+    parser.add_argument("--room", type=int, default=64, help="the texel room's resolution per object (0: none)")
     args = parser.parse_args()
     prt_addon.register()
     scene = demo.build_scene(demo.bundled_hdri_path("forest"))
@@ -303,6 +352,8 @@ def main():
         print(f"  ({vertices} glTF vertices)")
         if args.texels:
             texel_figures(scene, folder, order, args.samples, args.texels)
+    if args.room:
+        room_figures(folder, args.orders, args.samples, args.room)
     sys.stdout.flush()
     os._exit(0)  # (bpy 4.2 crashes at exit after a glTF export: docs/export.md)
 
