@@ -7,8 +7,10 @@ demo exports it (the default snorm16 transfer, the 128 px environment). The page
 (web/tools/bench_page.js, in Debian's Chromium on SwiftShader: software WebGL2 on the CPU) loads
 that file through GLTFLoader and the plugin (the load time: parse plus the first frame), then
 draws a torus knot of about --triangles triangles at 800x600 three ways, in turn, each frame
-finished by reading one pixel back: the PRT material (order 8 per-vertex transfer from a
-texture, as the plugin draws it by default, the file's lighting), the same from packed integer
+finished by reading one pixel back: the PRT material (order 8 per-vertex transfer summed every
+frame from a texture, the plugin's relight: false, the file's lighting), the same relit once per
+lighting change ("prt_relit", the plugin's default: one vec4 read per vertex a frame) and relit
+before every frame with the lighting turned ("prt_relit_turning"), the same from packed integer
 vertex attributes (the plugin's transferSource 'packed', "prt_packed"), with --lights the same with the file's
 split lights and their shadow views (PCSS per pixel) and with them unshadowed, and MeshStandardMaterial (roughness 0.5) with the file's world as a PMREM
 environment. Ratios are of medians measured side by side in one run; absolute times are for
@@ -103,7 +105,7 @@ def main():
         )
     # Each round draws every variant once, back to back: the ratio per round, then its median.
     standard = times["standard"]
-    for name in ("prt", "prt_packed", "prt_lights", "prt_lights_unshadowed"):
+    for name in ("prt", "prt_packed", "prt_relit", "prt_relit_turning", "prt_lights", "prt_lights_unshadowed"):
         if name in times:
             ratios = sorted(a / b for a, b in zip(times[name], standard))
             print(

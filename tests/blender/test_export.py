@@ -197,6 +197,15 @@ def test_operator_and_menu(baked, bpy_module, tmp_path):
     assert (tmp_path / "op.glb").is_file()
     with pytest.raises(RuntimeError, match="does not exist"):
         bpy.ops.prt.export_gltf(filepath=str(tmp_path / "no" / "op.glb"))
+    # The dialog's Transfer setting is the API's transfer encoding.
+    encodings = {}
+    for choice in ("float32", "snorm8"):
+        path = str(tmp_path / f"op_{choice}.glb")
+        assert bpy.ops.prt.export_gltf(filepath=path, transfer=choice) == {"FINISHED"}
+        document, _binary = _read_glb(path)
+        metas = [m["extras"]["PRT_lighting"] for m in document["meshes"] if "PRT_lighting" in m.get("extras", {})]
+        encodings[choice] = {m["transfer_encoding"] for m in metas}
+    assert encodings == {"float32": {"float32"}, "snorm8": {"snorm8"}}
 
 
 def test_khronos_validator(baked, tmp_path, validator_modules):

@@ -227,15 +227,3 @@ def test_auto_bakes_texels_for_a_coarse_mesh_and_vertices_for_a_dense_one(bpy_mo
     api.bake([floor, ball], order=2, samples=32, target="AUTO", resolution=16)
     assert floor.data["prt_bake"]["domain"] == "TEXEL"
     assert ball.data["prt_bake"]["domain"] in ("POINT", "CORNER")
-
-
-def test_the_export_refuses_a_texel_bake_with_the_way_out(bpy_module, empty_scene, tmp_path):
-    from prt_addon import api
-
-    bpy = bpy_module
-    obj = _plane(bpy)
-    _uniform_light(empty_scene)
-    api.bake([obj], order=2, samples=32, target="TEXELS", uv_map="UVMap", resolution=16)
-    with pytest.raises(ValueError, match=r"baked per texel, which the glTF export does not write yet"):
-        api.export_gltf(str(tmp_path / "out.glb"), [obj])
-    assert not list(tmp_path.iterdir())

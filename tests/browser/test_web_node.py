@@ -68,9 +68,10 @@ for (const c of job.checks) {
   const geometry = new THREE.BufferGeometry();
   geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(6), 3));
   for (const name of c.attributes || []) geometry.setAttribute(name, new THREE.BufferAttribute(new Float32Array(8), 4));
+  for (const name of c.uvs || []) geometry.setAttribute(name, new THREE.BufferAttribute(new Float32Array(4), 2));
   try {
     if (c.kind === 'lighting') readLighting(c.meta);
-    else readTransfer(c.meta, geometry);
+    else readTransfer(c.meta, geometry, c.json || {});
     out.checks.push('ok');
   } catch (error) {
     out.checks.push(`${error.name === 'Error' && error.constructor.name === 'FormatError' ? 'FormatError' : error.constructor.name}: ${error.message}`);
@@ -184,14 +185,33 @@ def test_format_checks_say_what_is_wrong():
             "indexes samples it does not have",
         ),
         ("transfer", transfer, attrs, "ok"),
-        ("transfer", dict(transfer, version=3), attrs, "format version 3, newer than this plugin reads (2)"),
+        ("transfer", dict(transfer, version=4), attrs, "format version 4, newer than this plugin reads (3)"),
         ("transfer", dict(transfer, order=3), attrs, "order 3 needs 3 transfer attributes, it lists 1"),
         ("transfer", transfer, [], "needs the attributes _PRT_T0"),
         ("transfer", dict(transfer, transfer_encoding="snorm16"), attrs, "no complete decode table"),
         ("transfer", dict(transfer, transfer_encoding="half"), attrs, "encoding 'half' is unknown"),
         ("transfer", dict(transfer, bounce_channels=3), attrs, "bounced transfer is inconsistent"),
     ]
+    # Texel transfers (docs/export.md, "Texel transfer"): two PNG textures, a TEXCOORD_1 ("uv1").
+    document = {"textures": [{"source": 0}, {"source": 1}], "images": [{"bufferView": 3}, {"bufferView": 4}]}
+    decode = [{"offset": [0, 0, 0, 0], "scale": [1, 1, 1, 1]}]
+    texel = {"texcoord": 1, "resolution": 8, "tiles": [1, 1], "textures": [0, 1], "decode": decode}
+    good = {"version": 3, "order": 2, "domain": "TEXEL", "attributes": [], "transfer_encoding": "unorm16_png"}
+    good["texel"] = texel
+    texel_cases = [
+        (good, ["uv1"], "ok"),
+        (good, ["uv"], "lightmap UV map TEXCOORD_1 is missing"),
+        (dict(good, transfer_encoding="unorm8_png"), ["uv1"], "needs 1 texture(s) in the file"),
+        (dict(good, texel=dict(texel, textures=[0, 7])), ["uv1"], "needs 2 texture(s) in the file"),
+        (dict(good, texel=dict(texel, decode=[])), ["uv1"], "no complete decode table (1 tiles)"),
+        (dict(good, texel=dict(texel, resolution=0)), ["uv1"], "texel resolution is bad"),
+        (dict(good, transfer_encoding="snorm16"), ["uv1"], "texel encoding 'snorm16' is unknown"),
+        ({k: v for k, v in good.items() if k != "texel"}, ["uv1"], "has no texel block"),
+    ]
+    cases += [("transfer", meta, [], message) for meta, _uvs, message in texel_cases]
     checks = [{"kind": kind, "meta": meta, "attributes": a} for kind, meta, a, _m in cases]
+    for check, (_meta, uvs, _m) in zip(checks[len(cases) - len(texel_cases) :], texel_cases, strict=True):
+        check.update(uvs=uvs, json=document)
     # (undefined, not null, for a missing block)
     checks[2].pop("meta")
     out = _run({"decode": [], "checks": checks, "rotations": []})

@@ -43,3 +43,24 @@ def demo_scene(bpy_module, addon):
     api.project_world(order=8)
     api.bake([scene.objects["Suzanne"], scene.objects["Ground"]], order=8, samples=64)
     return scene
+
+
+TEXEL_RESOLUTION = 128  # the texel demo's ground: 4.7 cm texels
+
+
+@pytest.fixture(scope="module")
+def texel_demo_scene(bpy_module, addon):
+    """The demo's scene projected at order 8, Suzanne baked per vertex and the ground per texel
+    (TEXEL_RESOLUTION) into a second UV map "Lightmap" (TEXCOORD_1 in the glTF), without split lights."""
+    from prt_addon import api
+    from prt_addon.blender.scene import lighting
+
+    scene = _demo_module().build_scene(_demo_module().bundled_hdri_path("forest"))
+    api.project_world(order=8)
+    ground = scene.objects["Ground"]
+    ground.data.uv_layers.new(name="Lightmap")  # (a copy of UVMap, the grid's planar map)
+    lighting.set_lights_override(scene, [])
+    api.bake([scene.objects["Suzanne"]], order=8, samples=64)
+    api.bake([ground], order=8, samples=64, target="TEXELS", uv_map="Lightmap", resolution=TEXEL_RESOLUTION)
+    yield scene
+    lighting.set_lights_override(scene, None)

@@ -4,9 +4,11 @@
 // it and load the scene without PRT (or the one mesh without it).
 
 export const SCENE_VERSION = 1; // the newest scene `PRT_lighting` this code reads
-export const MESH_VERSION = 2; // the newest mesh `PRT_lighting` (2: quantised transfer)
+export const MESH_VERSION = 3; // the newest mesh `PRT_lighting` (2: quantised transfer, 3: per texel)
 // Transfer encodings (docs/export.md, "Quantised transfer"): K of glTF's normalised decoding.
 export const ENCODINGS = { float32: 0, snorm16: 32767, snorm8: 127 };
+// Texel transfer encodings ("Texel transfer"): 8-bit PNG planes per value.
+export const TEXEL_ENCODINGS = { unorm16_png: 2, unorm8_png: 1 };
 
 export class FormatError extends Error {}
 
@@ -94,13 +96,14 @@ export function readLighting(meta) {
  * A mesh's transfer description (mesh extras PRT_lighting) checked against its geometry:
  * {order, count, names, channels, encoding, k, decode}; throws FormatError.
  */
-export function readTransfer(meta, geometry) {
+export function readTransfer(meta, geometry, json = {}) {
   if (!meta || typeof meta !== 'object') throw new FormatError('its PRT_lighting block is not an object');
   checkVersion(meta, MESH_VERSION, 'its PRT transfer');
   const order = meta.order;
   if (!Number.isInteger(order) || order < 1 || order > 32)
     throw new FormatError(`it has a bad order (${JSON.stringify(order)})`);
   const count = Math.ceil((order * order) / 4);
+  if (meta.domain === 'TEXEL') return readTexelTransfer(meta, geometry, json, order, count);
   const names = meta.attributes;
   if (!Array.isArray(names) || names.length !== count) {
     throw new FormatError(
@@ -136,4 +139,48 @@ export function readTransfer(meta, geometry) {
     throw new FormatError(`order ${order} needs the attributes ${missing.join(', ')}, missing or not VEC4 per vertex`);
   }
   return { order, count, names: all, channels, encoding, k, decode };
+}
+
+/** A texel transfer's description (docs/export.md, "Texel transfer") checked against the geometry
+ * and the document's textures: {order, count, names: [], channels: 0, encoding, texel, uvName}. */
+function readTexelTransfer(meta, geometry, json, order, count) {
+  const texel = meta.texel;
+  if (!texel || typeof texel !== 'object') throw new FormatError('its texel transfer has no texel block');
+  const encoding = meta.transfer_encoding;
+  if (!(encoding in TEXEL_ENCODINGS)) throw new FormatError(`its texel encoding '${encoding}' is unknown`);
+  const { resolution, tiles, textures, decode, texcoord } = texel;
+  if (!Number.isInteger(resolution) || resolution < 1) throw new FormatError('its texel resolution is bad');
+  if (!Array.isArray(tiles) || tiles.length !== 2 || !tiles.every((t) => Number.isInteger(t) && t > 0))
+    throw new FormatError('its texel tiles are bad');
+  if ((meta.bounce_channels || 0) !== 0) throw new FormatError('its texel transfer declares bounced light');
+  const known = (json.textures || []).length;
+  const images = json.images || [];
+  if (
+    !Array.isArray(textures) ||
+    textures.length !== TEXEL_ENCODINGS[encoding] ||
+    !textures.every(
+      (t) =>
+        Number.isInteger(t) &&
+        t >= 0 &&
+        t < known &&
+        images[json.textures[t].source] &&
+        images[json.textures[t].source].bufferView !== undefined,
+    )
+  )
+    throw new FormatError(`its ${encoding} transfer needs ${TEXEL_ENCODINGS[encoding]} texture(s) in the file`);
+  if (
+    !(
+      Array.isArray(decode) &&
+      decode.length === count &&
+      decode.every((d) => d && isVector(d.offset, 4) && isVector(d.scale, 4))
+    )
+  )
+    throw new FormatError(`its texel transfer has no complete decode table (${count} tiles)`);
+  if (count > tiles[0] * tiles[1]) throw new FormatError(`its ${count} tiles do not fit its tile grid`);
+  const uvName = texcoord === 0 ? 'uv' : `uv${texcoord}`;
+  const uv = Number.isInteger(texcoord) && texcoord >= 0 ? geometry.attributes[uvName] : undefined;
+  const vertices = geometry.attributes.position ? geometry.attributes.position.count : 0;
+  if (!uv || uv.itemSize !== 2 || uv.count !== vertices)
+    throw new FormatError(`its lightmap UV map TEXCOORD_${texcoord} is missing`);
+  return { order, count, names: [], channels: 0, encoding, texel, uvName };
 }

@@ -9,7 +9,12 @@
 // newer or broken (gltf.userData.prt is then null), a mesh whose transfer is broken keeps its
 // own material.
 import { readLighting, readTransfer } from './format.js';
-import { geometryTransferSource, packedTransferSource } from './transfer_source.js';
+import {
+  geometryTransferSource,
+  packedTransferSource,
+  relitTransferSource,
+  texelTransferSource,
+} from './transfer_source.js';
 import { DEFAULT_ALBEDO, PRTLighting } from './prt_lighting.js';
 import { loadEnvironment } from './background.js';
 
@@ -23,12 +28,25 @@ export class PRTLightingPlugin {
   /** options: {exposure (stops; default the file's), maxTextureSize (default 4096), quiet (no
    * message for a glTF without PRT data), transferSource ('texture', the default: the decoded
    * transfer in a float texture; 'packed': a quantised transfer's integers in packed vertex
-   * attributes when they fit, half the GPU memory, slower in software WebGL: docs/export.md)}. */
+   * attributes when they fit, half the GPU memory, slower in software WebGL: docs/export.md),
+   * relight (true, the default: the texture's sums drawn once per lighting change into a texture
+   * each vertex reads; false: summed per vertex every frame). A texel bake is always relit. */
   constructor(parser, options = {}) {
     this.parser = parser;
     this.options = options;
     this.name = 'PRT_lighting'; // (extras, not an extension: GLTFLoader calls afterRoot all the same)
     this.prt = null;
+  }
+
+  /** The transfer source of a geometry (transfer_source.js): per texel for a texel bake, else
+   * the option's (the texture relit once per lighting change by default). */
+  transferSource(geometry, spec) {
+    if (spec.texel) return texelTransferSource(this.parser, geometry, spec);
+    const choice = this.options.transferSource || 'texture';
+    const packed = choice === 'packed' ? packedTransferSource(geometry, spec) : null;
+    if (packed) return packed;
+    const texture = geometryTransferSource(geometry, spec, this.options.maxTextureSize);
+    return this.options.relight === false ? texture : relitTransferSource(texture);
   }
 
   async afterRoot(gltf) {
@@ -60,13 +78,9 @@ export class PRTLightingPlugin {
       if (transfer === undefined) return;
       const name = mesh.name || `mesh ${where.meshes}`;
       try {
-        const spec = readTransfer(transfer, object.geometry);
+        const spec = readTransfer(transfer, object.geometry, json);
         if (!sources.has(object.geometry)) {
-          const packed = this.options.transferSource === 'packed' ? packedTransferSource(object.geometry, spec) : null;
-          sources.set(
-            object.geometry,
-            packed || geometryTransferSource(object.geometry, spec, this.options.maxTextureSize),
-          );
+          sources.set(object.geometry, this.transferSource(object.geometry, spec));
           for (const attr of spec.names) object.geometry.deleteAttribute(attr.toLowerCase());
         }
         const primitive = mesh.primitives[where.primitives] || {};
@@ -80,6 +94,12 @@ export class PRTLightingPlugin {
         say('error', `mesh '${name}': ${error.message}; drawn with its own material`);
       }
     });
+    try {
+      await Promise.all([...sources.values()].map((source) => source.ready));
+    } catch (error) {
+      say('error', `the texel transfer's images cannot be read (${error.message}); drawn without PRT`);
+      return;
+    }
     if (!baked.length) {
       say('warn', 'the file has PRT lighting but no mesh with a usable transfer: drawn without PRT');
       return;

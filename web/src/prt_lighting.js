@@ -12,6 +12,7 @@ import { prtMaterial, setLight } from './prt_material.js';
 import { MAX_SUNS, ShadowMaps, fileViews } from './shadows.js';
 import { rotationRows, turned } from './rotation_input.js';
 import { backgroundMesh } from './background.js';
+import { Relight } from './relight.js';
 
 // Blender's display draws a primitive without a material with its default grey (albedo.py).
 export const DEFAULT_ALBEDO = [0.8, 0.8, 0.8];
@@ -71,6 +72,11 @@ export class PRTLighting {
         channels: spec.channels,
         side,
       });
+      const relight =
+        source.relightSize && (source.relit || source.stage === 'texel')
+          ? new Relight(source, material, spec.channels)
+          : null;
+      if (relight) material.uniforms.prtRadianceTx.value = relight.texture;
       object.userData.prtOriginalMaterial = object.material;
       object.material = material;
       const entry = {
@@ -81,6 +87,7 @@ export class PRTLighting {
         order: spec.order,
         channels: spec.channels,
         frame: null,
+        relight,
       };
       object.onBeforeRender = (renderer) => this.beforeRender(renderer, entry);
       return entry;
@@ -131,12 +138,12 @@ export class PRTLighting {
 
   /** Bring every baked mesh and the shadow maps up to date now (done anyway before each draw). */
   update(renderer) {
-    for (const entry of this.baked) this.updateMesh(entry);
-    this.updateShadows(renderer);
+    for (const entry of this.baked) this.beforeRender(renderer, entry);
   }
 
   beforeRender(renderer, entry) {
     this.updateMesh(entry);
+    if (entry.relight && entry.relight.dirty) entry.relight.run(renderer);
     this.updateShadows(renderer);
   }
 
@@ -159,6 +166,7 @@ export class PRTLighting {
     }
     material.uniforms.nrmMatrix.value.getNormalMatrix(object.matrixWorld);
     entry.frame = object.matrixWorld.clone();
+    if (entry.relight) entry.relight.dirty = true; // (drawn again before the mesh, beforeRender)
   }
 
   updateShadows(renderer) {
@@ -214,11 +222,12 @@ export class PRTLighting {
 
   /** The GPU resources; the meshes get their original materials back. */
   dispose() {
-    for (const { object, material, source } of this.baked) {
+    for (const { object, material, source, relight } of this.baked) {
       object.material = object.userData.prtOriginalMaterial;
       object.onBeforeRender = () => {};
       material.dispose();
       source.dispose();
+      if (relight) relight.dispose();
     }
     if (this.shadows) this.shadows.dispose();
   }

@@ -1,4 +1,4 @@
-// The PRT material: per-vertex max(0, sum_i L_i t_i) x albedo, plus the split lights per pixel.
+// The PRT material: per-vertex (or per-texel) max(0, sum_i L_i t_i) x albedo, plus the split lights per pixel.
 //
 // The same shading as Blender's display (prt_addon/blender/display/shader.py, shader_suns.py):
 // the transfer comes from a transfer source (transfer_source.js: fetch(k), the k-th vec4 from
@@ -42,8 +42,22 @@ function transferSum(count, channels, source) {
   return lines.join('\n');
 }
 
+// The radiance of a vertex: the sum here, or (a relit source, relight.js) read from the texture
+// the sum was drawn into once per lighting change; a texel source's is read per pixel instead.
+function vertexRadiance(count, channels, source) {
+  if (source.stage === 'texel') return `  prtUv = ${source.uvAttribute};`;
+  if (source.radianceVertex) return `  radiance = ${source.radianceVertex} * albedo * scale;`;
+  return `  vec3 r = lightConstant${channels ? ' + bounceConstant' : ''};
+  vec4 t;
+  ${channels === 1 ? 'vec4 t1;' : ''}
+${transferSum(count, channels, source)}
+  radiance = max(r, vec3(0.0)) * albedo * scale;`;
+}
+
 const VERTEX = (count, views, channels, source) => `
 ${source.glsl}
+${source.stage === 'texel' ? `attribute vec2 ${source.uvAttribute};\nvarying vec2 prtUv;` : ''}
+${source.radianceVertex ? 'uniform sampler2D prtRadianceTx;' : ''}
 uniform vec4 light[${3 * count}];
 uniform vec3 lightConstant;
 ${channels ? `uniform vec4 bounceLight[${3 * count}];\nuniform vec3 bounceConstant;` : ''}
@@ -52,11 +66,7 @@ uniform float scale;
 varying vec3 radiance;
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 void main() {
-  vec3 r = lightConstant${channels ? ' + bounceConstant' : ''};
-  vec4 t;
-  ${channels === 1 ? 'vec4 t1;' : ''}
-${transferSum(count, channels, source)}
-  radiance = max(r, vec3(0.0)) * albedo * scale;
+${vertexRadiance(count, channels, source)}
   vec4 wp = modelMatrix * vec4(position, 1.0);
 ${views ? '  surfaceAlbedo = albedo * scale;\n  worldPos = wp.xyz;\n  localNrm = normal;' : ''}
   gl_Position = projectionMatrix * viewMatrix * wp;
@@ -152,13 +162,36 @@ function sunLoop(layout) {
   return lines.join('\n');
 }
 
-const FRAGMENT = (views, samples, layout) => `
+// A texel source's radiance: the bilinear lookup (clamp to edge, texel centres at (i + 0.5) / res)
+// of the relit texture at the lightmap UV, as core.transfer.lightmap.bilinear and Blender's display.
+const TEXEL_LOOKUP = `
+uniform sampler2D prtRadianceTx;
+uniform int prtResolution;
+uniform vec3 albedo;
+uniform float scale;
+varying vec2 prtUv;
+vec3 prtTexelRadiance() {
+  vec2 x = prtUv * float(prtResolution) - 0.5;
+  vec2 f0 = floor(x);
+  vec2 f = x - f0;
+  ivec2 top = ivec2(prtResolution - 1);
+  ivec2 a = clamp(ivec2(f0), ivec2(0), top);
+  ivec2 b = clamp(ivec2(f0) + 1, ivec2(0), top);
+  vec3 r00 = texelFetch(prtRadianceTx, a, 0).rgb;
+  vec3 r10 = texelFetch(prtRadianceTx, ivec2(b.x, a.y), 0).rgb;
+  vec3 r01 = texelFetch(prtRadianceTx, ivec2(a.x, b.y), 0).rgb;
+  vec3 r11 = texelFetch(prtRadianceTx, b, 0).rgb;
+  return mix(mix(r00, r10, f.x), mix(r01, r11, f.x), f.y);
+}`;
+
+const FRAGMENT = (views, samples, layout, texel) => `
 uniform float exposureScale;
 varying vec3 radiance;
+${texel ? TEXEL_LOOKUP : ''}
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 ${views ? SUN_FUNCTIONS(views, samples) : ''}
 void main() {
-  vec3 color = radiance;
+  vec3 color = ${texel ? 'prtTexelRadiance() * albedo * scale' : 'radiance'};
 ${views ? sunLoop(layout) : ''}
   gl_FragColor = vec4(color * exposureScale, 1.0);
   #include <tonemapping_fragment>
@@ -181,7 +214,8 @@ export function prtMaterial({
   channels = 0,
   side = THREE.DoubleSide,
 }) {
-  if (source.stage !== 'vertex') throw new Error(`a '${source.stage}' transfer source is not supported yet`);
+  if (source.stage !== 'vertex' && source.stage !== 'texel')
+    throw new Error(`a '${source.stage}' transfer source is not supported`);
   const count = source.count;
   const vec4s = () => ({ value: Array.from({ length: 3 * count }, () => new THREE.Vector4()) });
   const uniforms = {
@@ -193,6 +227,8 @@ export function prtMaterial({
     scale: { value: 1.0 },
     nrmMatrix: { value: new THREE.Matrix3() },
     exposureScale: shared.exposureScale,
+    prtRadianceTx: { value: null }, // (a relit or texel source: relight.js's texture)
+    prtResolution: { value: source.resolution || 0 },
   };
   if (views) {
     for (const name of ['sunRows', 'sunDir', 'sunPower', 'sunParams', 'sunRange', 'sunSamples']) {
@@ -203,7 +239,7 @@ export function prtMaterial({
   return new THREE.ShaderMaterial({
     uniforms,
     vertexShader: VERTEX(count, views, channels, source),
-    fragmentShader: FRAGMENT(views, samples, layout),
+    fragmentShader: FRAGMENT(views, samples, layout, source.stage === 'texel'),
     side,
   });
 }

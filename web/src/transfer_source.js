@@ -10,9 +10,10 @@
 // ('vertex' stage) sources: the quantised transfer as the file's integers packed two to an int32
 // in a few vertex attributes (decoding folded into the light: sum L_i (o_i + s_i q_i / K) =
 // sum L_i o_i + sum (L_i s_i / K) q_i), and any transfer decoded into an RGBA32F texture read at
-// gl_VertexID (any order fits, whatever the limit of 16 vertex attributes). A per-texel source
-// (transfer in textures sampled through a lightmap UV) would be a 'fragment'-stage source with
-// the same calls; prt_material.js would put the sum there then.
+// gl_VertexID (any order fits, whatever the limit of 16 vertex attributes), by default relit once
+// per lighting change (relight.js: relightSize, relightGlsl, relightFetch(k) draw the sums into a
+// texture, radianceVertex reads a vertex's). The per-texel source ('texel' stage) reads a texel
+// bake's PNG planes in the relight pass and the material looks the relit texture up per pixel.
 import * as THREE from 'three';
 
 const MAX_TEXTURE_WIDTH = 4096;
@@ -91,8 +92,20 @@ uniform int prtPerRow;
 vec4 prtTransfer(int k) {
   return texelFetch(prtTransferTx, ivec2((gl_VertexID % prtPerRow) * ${total} + k, gl_VertexID / prtPerRow), 0);
 }`,
+    // Relit once per lighting change (relight.js): one fragment per vertex at (v % perRow, v / perRow).
+    relightSize: [perRow, height],
+    relightGlsl: `
+uniform sampler2D prtTransferTx;`,
+    relightFetch: (k) => `texelFetch(prtTransferTx, ivec2(p.x * ${total} + ${k}, p.y), 0)`,
+    relitVertex: 'texelFetch(prtRadianceTx, ivec2(gl_VertexID % prtPerRow, gl_VertexID / prtPerRow), 0).rgb',
     dispose: () => texture.dispose(),
   };
+}
+
+/** The texture source relit once per lighting change (relight.js): the vertex stage reads one
+ * vec4 per vertex whatever the order (docs/export.md, "Speed"). */
+export function relitTransferSource(source) {
+  return { ...source, radianceVertex: source.relitVertex, relit: true };
 }
 
 /** The per-vertex source of a glTF geometry's _PRT_Tk attributes (a readTransfer spec, format.js), decoded. */
@@ -167,4 +180,80 @@ vec4 prtHigh(ivec4 v) { return vec4(v >> 16); }`,
     },
     dispose: () => names.forEach((n) => geometry.deleteAttribute(n)),
   };
+}
+
+/** An ImageBitmap of a glTF texture's PNG, its bytes exactly (no premultiplication, no colour
+ * conversion, no flip: row 0 the PNG's top row, v_glTF = 0). */
+async function planeTexture(parser, index) {
+  const json = parser.json;
+  const image = json.images[json.textures[index].source];
+  const data = await parser.getDependency('bufferView', image.bufferView);
+  const bitmap = await createImageBitmap(new Blob([data], { type: image.mimeType || 'image/png' }), {
+    premultiplyAlpha: 'none',
+    colorSpaceConversion: 'none',
+    imageOrientation: 'none',
+  });
+  const texture = new THREE.Texture(bitmap);
+  texture.colorSpace = THREE.NoColorSpace;
+  texture.flipY = false;
+  texture.premultiplyAlpha = false;
+  texture.generateMipmaps = false;
+  texture.minFilter = texture.magFilter = THREE.NearestFilter;
+  texture.needsUpdate = true;
+  return texture;
+}
+
+/**
+ * The per-texel source of a texel bake (a readTransfer spec with spec.texel, format.js): the PNG
+ * planes of docs/export.md ("Texel transfer"), decoded in the relight pass (relight.js) into one
+ * radiance texel per lightmap texel, which the material looks up per pixel at the lightmap UV.
+ * `ready` resolves when the planes are loaded.
+ */
+export function texelTransferSource(parser, geometry, spec) {
+  const { resolution, tiles, textures, decode } = spec.texel;
+  const planes = textures.length;
+  const uvAttribute = 'prtLightmapUv';
+  geometry.setAttribute(uvAttribute, geometry.getAttribute(spec.uvName));
+  const vec4s = (key) => decode.map((entry) => new THREE.Vector4(...entry[key]));
+  const uniforms = {
+    prtDecodeOffset: { value: vec4s('offset') },
+    prtDecodeScale: { value: vec4s('scale') },
+  };
+  textures.forEach((_t, p) => (uniforms[`prtPlane${p}`] = { value: null }));
+  const levels = 256 ** planes - 1;
+  const bytes = textures.map((_t, p) => `floor(texelFetch(prtPlane${p}, q, 0) * 255.0 + 0.5)`);
+  let combined = bytes[0];
+  for (let p = 1; p < planes; p++) combined = `(${combined}) * 256.0 + ${bytes[p]}`;
+  const source = {
+    kind: 'texel',
+    stage: 'texel',
+    count: spec.count,
+    blocks: 1,
+    resolution,
+    uvAttribute,
+    uniforms,
+    glsl: '',
+    fetch: () => {
+      throw new Error('a texel source is read through its relit texture');
+    },
+    lightFor: plainLight,
+    relightSize: [resolution, resolution],
+    relightGlsl: `
+${textures.map((_t, p) => `uniform sampler2D prtPlane${p};`).join('\n')}
+uniform vec4 prtDecodeOffset[${spec.count}];
+uniform vec4 prtDecodeScale[${spec.count}];
+vec4 prtTexel(int k, ivec2 p) {
+  ivec2 q = ivec2((k % ${tiles[0]}) * ${resolution}, (k / ${tiles[0]}) * ${resolution}) + p;
+  return prtDecodeOffset[k] + prtDecodeScale[k] * ((${combined}) / ${levels.toFixed(1)});
+}`,
+    relightFetch: (k) => `prtTexel(${k}, p)`,
+    dispose: () => {
+      textures.forEach((_t, p) => uniforms[`prtPlane${p}`].value && uniforms[`prtPlane${p}`].value.dispose());
+      geometry.deleteAttribute(uvAttribute);
+    },
+  };
+  source.ready = Promise.all(textures.map((index) => planeTexture(parser, index))).then((loaded) => {
+    loaded.forEach((texture, p) => (uniforms[`prtPlane${p}`].value = texture));
+  });
+  return source;
 }

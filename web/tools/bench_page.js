@@ -2,9 +2,11 @@
 //
 // loadFile(base64) times GLTFLoader + PRTLightingPlugin on a .glb and its first frame; setup(n,
 // lights) builds a torus knot of about n triangles drawn several ways: 'prt' (order 8 snorm16
-// transfer per vertex as the plugin draws it by default: decoded into a float texture; the
+// transfer per vertex summed every frame from a float texture, the plugin's relight: false; the
 // file's lighting without its split lights), 'prt_packed' (the same from packed integer vertex
-// attributes, transferSource 'packed'), with `lights` also 'prt_lights' (the file's split lights
+// attributes, transferSource 'packed'), 'prt_relit' (the texture relit once per lighting change,
+// the plugin's default: a vertex reads one vec4 a frame), 'prt_relit_turning' (the same with the
+// lighting turned before every frame: the relight pass and the frame), with `lights` also 'prt_lights' (the file's split lights
 // and shadow views) and 'prt_lights_unshadowed' (their cosine terms only), and 'standard'
 // (MeshStandardMaterial, white, roughness 0.5, lit by the file's world as a PMREM environment);
 // frames(k) draws each in turn k times, each frame finished by reading one pixel back, and
@@ -12,7 +14,7 @@
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
 import { PRTLightingPlugin, geometryTransferSource, readLighting, readTransfer } from '../src/index.js';
-import { packedTransferSource } from '../src/transfer_source.js';
+import { packedTransferSource, relitTransferSource } from '../src/transfer_source.js';
 import { PRTLighting } from '../src/prt_lighting.js';
 
 const WIDTH = 800;
@@ -114,13 +116,16 @@ async function setup(triangles, withLights, order = 8) {
   const kinds = [
     ['prt', []],
     ['prt_packed', []],
+    ['prt_relit', []],
+    ['prt_relit_turning', []],
   ];
   if (withLights) kinds.push(['prt_lights', file.lights], ['prt_lights_unshadowed', file.lights]);
   const packed = packedTransferSource(geometry, spec);
   const texture = geometryTransferSource(geometry, spec, renderer.capabilities.maxTextureSize);
   for (const [name, lights] of kinds) {
     const mesh = new THREE.Mesh(geometry);
-    const source = name === 'prt_packed' ? packed : texture;
+    const source =
+      name === 'prt_packed' ? packed : name.startsWith('prt_relit') ? relitTransferSource(texture) : texture;
     const lighting = readLighting({ ...file, lights });
     const prt = new PRTLighting({
       lighting,
@@ -159,8 +164,9 @@ async function setup(triangles, withLights, order = 8) {
 function frames(rounds) {
   const times = Object.fromEntries(Object.keys(state.variants).map((name) => [name, []]));
   for (let i = 0; i < rounds; i++) {
-    for (const [name, { scene }] of Object.entries(state.variants)) {
+    for (const [name, { scene, prt }] of Object.entries(state.variants)) {
       const started = performance.now();
+      if (name === 'prt_relit_turning') prt.setLightingRotation(new THREE.Euler(0, 0.01 * (i + 1), 0));
       renderer.render(scene, state.camera);
       finish();
       times[name].push(performance.now() - started);

@@ -15,12 +15,16 @@ export interface PRTLightingOptions {
   /** 'texture' (default): the decoded transfer in a float texture; 'packed': a quantised transfer's
    * integers in packed vertex attributes when they fit (half the GPU memory). */
   transferSource?: 'texture' | 'packed';
+  /** The texture source relit once per lighting change (true, the default: each vertex then reads
+   * one value a frame, whatever the order) or summed per vertex every frame (false). Texel bakes
+   * are always relit, and looked up per pixel through their lightmap UV map. */
+  relight?: boolean;
 }
 
 export interface PRTInfo {
   objects: string[];
   orders: number[];
-  /** per object, where its transfer is read from: 'packed' (vertex attributes) or 'texture' */
+  /** per object, where its transfer is read from: 'packed' (vertex attributes), 'texture' or 'texel' (a texel bake's images) */
   sources: string[];
   lightingOrder: number;
   lights: number;
@@ -30,7 +34,7 @@ export interface PRTInfo {
 /** A transfer source (transfer_source.js): where the PRT material reads the transfer from. */
 export interface TransferSource {
   kind: string;
-  stage: 'vertex' | 'fragment';
+  stage: 'vertex' | 'texel';
   count: number;
   blocks: number;
   uniforms: Record<string, { value: unknown }>;
@@ -40,6 +44,13 @@ export interface TransferSource {
   fetch(k: number): string;
   /** The light (rows of [r, g, b]) as the shader dots it with fetch's vec4s, and a constant per channel. */
   lightFor(rows: number[][], blocks: number[]): { rows: number[][]; constant: number[] };
+  /** Relit sources (relight.js): the float target's size (one texel per vertex or lightmap texel),
+   * the relight pass's GLSL declarations and its k-th vec4 (of the target's texel p). */
+  relightSize?: [number, number];
+  relightGlsl?: string;
+  relightFetch?(k: number): string;
+  /** A relit vertex source: the GLSL expression of a vertex's relit radiance. */
+  radianceVertex?: string;
   dispose(): void;
 }
 

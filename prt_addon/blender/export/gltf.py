@@ -22,11 +22,12 @@ from ...core.sh import rotation as _rotation
 from ..scene import lighting as _lighting, storage
 from ..world import nodes as _nodes, projection as _world
 from ..world.nodes import WorldError
-from . import glb, ibl, quantise
+from . import glb, ibl, quantise, texels
 
 ATTRIBUTE_PREFIX = "_PRT_T"
 EXTRAS_KEY = "PRT_lighting"
-FORMAT_VERSION = 1  # scene extras, and mesh extras of a float32 transfer (quantise.VERSION: quantised)
+FORMAT_VERSION = 1  # scene extras, and mesh extras of a float32 transfer (quantise.VERSION: quantised,
+# texels.VERSION: per texel)
 DEFAULT_TRANSFER = "snorm16"  # docs/export.md, "Quantised transfer": chosen by size and error measured
 
 # Blender (Z up) to glTF (Y up) coordinates, as the exporter's export_yup: (x, y, z) -> (x, z, -y).
@@ -108,11 +109,6 @@ def _plan(objects, scene):
         if state.status == "STALE":
             raise ExportError(
                 f"'{obj.name}': the bake is stale ({state.reason}), so the export would not match the mesh"
-            )
-        if state.bake is not None and state.bake.domain == "TEXEL":
-            raise ExportError(
-                f"'{obj.name}' is baked per texel, which the glTF export does not write yet: bake it per vertex "
-                "(Target: Vertices) to export it"
             )
         plan.append((obj, state.bake if state.status == "FRESH" else None))
     if not any(bake is not None for _o, bake in plan):
@@ -205,11 +201,12 @@ def world_extras(scene):
 
 
 def mesh_extras(bake):
+    texel = bake.domain == "TEXEL"  # (its images and UV map: texels.annotate)
     return {
         "version": FORMAT_VERSION,
         "order": bake.order,
         "coefficients": bake.order * bake.order,
-        "attributes": [attribute_name(k) for k in range(bake.count)],
+        "attributes": [] if texel else [attribute_name(k) for k in range(bake.count)],
         "domain": bake.domain,
         "frame": "GLTF_NODE_LOCAL",
         "sh_convention": "REAL_ORTHONORMAL_NO_CONDON_SHORTLEY",
@@ -217,7 +214,9 @@ def mesh_extras(bake):
         "shadows": bool(bake.record.get("shadows", False)),
         "bounces": int(bake.record.get("bounces", 0)),
         "bounce_channels": int(bake.channels),
-        "bounce_attributes": [attribute_name(k) for k in range(bake.count, bake.count * (1 + bake.channels))],
+        "bounce_attributes": []
+        if texel
+        else [attribute_name(k) for k in range(bake.count, bake.count * (1 + bake.channels))],
         "transfer_encoding": "float32",  # quantise.quantise changes it (and version, and adds decode)
     }
 
@@ -276,17 +275,21 @@ def _restore(state, added):
 
 
 def _annotate(document, plan, world):
-    """Add the extras: the scene's lighting, and each baked mesh's metadata (by node name)."""
+    """Add the extras: the scene's lighting, and each baked mesh's metadata (by node name);
+    returns {glTF mesh index: (Blender mesh, bake)} of the texel bakes."""
     scenes = document.get("scenes", [])
     for gltf_scene in scenes:
         gltf_scene.setdefault("extras", {})[EXTRAS_KEY] = world
     by_name = {o.name: bake for o, bake in plan if bake is not None}
+    data = {o.name: o.data for o, bake in plan if bake is not None}
     meshes = document.get("meshes", [])
-    found = set()
+    found, texel = set(), {}
     for node in document.get("nodes", []):
         bake = by_name.get(node.get("name"))
         if bake is None or "mesh" not in node:
             continue
+        if bake.domain == "TEXEL":
+            texel[node["mesh"]] = (data[node["name"]], bake)
         mesh = meshes[node["mesh"]]
         extras = mesh.get("extras")
         mesh["extras"] = extras = extras if isinstance(extras, dict) else {}
@@ -295,6 +298,7 @@ def _annotate(document, plan, world):
     missing = sorted(set(by_name) - found)
     if missing:
         raise ExportError(f"the glTF exporter wrote no mesh for {', '.join(missing)}")
+    return texel
 
 
 def _run_exporter(path, meshes):
@@ -342,7 +346,7 @@ def export_gltf(path, objects=None, scene=None, environment_size=ibl.DEFAULT_SIZ
     temp = os.path.join(os.path.dirname(path), f".{os.path.basename(path)}.{uuid.uuid4().hex[:8]}.tmp.glb")
     try:
         for obj, bake in plan:
-            if bake is not None and obj.data not in [m for m, _n in added]:
+            if bake is not None and bake.domain != "TEXEL" and obj.data not in [m for m, _n in added]:
                 added.append((obj.data, []))
                 _add_attributes(obj.data, bake, added[-1][1])
         for obj in bpy.context.view_layer.objects:
@@ -354,8 +358,9 @@ def export_gltf(path, objects=None, scene=None, environment_size=ibl.DEFAULT_SIZ
         if "FINISHED" not in result or not os.path.isfile(temp):
             raise ExportError("the glTF exporter did not write the file")
         document, chunks = glb.read(temp)
-        _annotate(document, plan, world)
+        texel = _annotate(document, plan, world)
         chunks = quantise.quantise(document, chunks, transfer, EXTRAS_KEY)
+        texels.annotate(document, chunks, texel, to_gltf_frame, texels.encoding_for(transfer), EXTRAS_KEY)
         if environment is not None:
             ibl.write(document, chunks, environment[0], environment[1], glb.CHUNK_BIN)
         glb.write(temp, document, chunks)

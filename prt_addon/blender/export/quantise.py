@@ -109,7 +109,7 @@ def quantise(document, chunks, encoding, extras_key="PRT_lighting"):
     jobs, payloads = [], []  # (accessor index) per new view
     for mesh in document.get("meshes", []):
         meta = (mesh.get("extras") or {}).get(extras_key)
-        if not isinstance(meta, dict):
+        if not isinstance(meta, dict) or meta.get("domain") == "TEXEL":  # (texels.py: images)
             continue
         names = list(meta.get("attributes", [])) + list(meta.get("bounce_attributes", []))
         table = []

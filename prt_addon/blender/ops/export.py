@@ -34,6 +34,24 @@ class PRT_OT_export_gltf(bpy.types.Operator, ExportHelper):
         ],
         default=str(gltf.ibl.DEFAULT_SIZE),
     )
+    transfer: bpy.props.EnumProperty(
+        name="Transfer",
+        description='How the transfer coefficients are stored in the file (docs/export.md, "Quantised transfer")',
+        items=[
+            (
+                "snorm16",
+                "16-bit",
+                "Normalised 16-bit integers with a scale and offset per coefficient (error under 0.01 %)",
+            ),
+            (
+                "snorm8",
+                "8-bit",
+                "Normalised 8-bit integers: a quarter of float32, errors up to about 0.6 % of the radiance",
+            ),
+            ("float32", "Float", "32-bit floats: exact, largest, readable by format 1 viewers"),
+        ],
+        default=gltf.DEFAULT_TRANSFER,
+    )
 
     @classmethod
     def poll(cls, context):
@@ -42,7 +60,9 @@ class PRT_OT_export_gltf(bpy.types.Operator, ExportHelper):
     def execute(self, context):
         objects = list(context.selected_objects) if self.selected_only else None
         try:
-            path = gltf.export_gltf(self.filepath, objects, context.scene, int(self.environment_size))
+            path = gltf.export_gltf(
+                self.filepath, objects, context.scene, int(self.environment_size), transfer=self.transfer
+            )
         except ValueError as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}

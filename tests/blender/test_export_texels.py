@@ -1,0 +1,132 @@
+"""Texel bakes in the .glb: the lightmap UV map as a TEXCOORD, the transfer as 8-bit PNG planes that decode to the bake's coefficients, the radiance error the encoding adds."""
+
+import json
+import os
+import subprocess
+
+import numpy as np
+import pytest
+from helpers.fixtures_web import TEXEL_RESOLUTION
+from helpers.gltf import VALIDATE_JS, _read_glb
+from helpers.png import _decode_png
+
+BUDGET = 0.005  # of the mean radiance (issue 29: what quantisation may add against render_view)
+
+
+def _planes(document, binary, meta):
+    """The decoded coefficients (res, res, 4 G) of a texel mesh's PNG planes, glTF frame, row 0
+    the top (v_glTF = 0), by docs/export.md's rule."""
+    texel = meta["texel"]
+    res, (tiles_x, _tiles_y) = texel["resolution"], texel["tiles"]
+    planes = []
+    for index in texel["textures"]:
+        view = document["bufferViews"][document["images"][document["textures"][index]["source"]]["bufferView"]]
+        data = binary[view.get("byteOffset", 0) : view.get("byteOffset", 0) + view["byteLength"]]
+        planes.append(_decode_png(data).astype(np.float64))
+    q = np.zeros_like(planes[0])
+    for plane in planes:
+        q = q * 256.0 + plane
+    q /= 256.0 ** len(planes) - 1
+    groups = len(texel["decode"])
+    out = np.empty((res, res, 4 * groups))
+    for g, entry in enumerate(texel["decode"]):
+        row, col = divmod(g, tiles_x)
+        tile = q[row * res : (row + 1) * res, col * res : (col + 1) * res]
+        out[..., 4 * g : 4 * g + 4] = np.asarray(entry["offset"]) + np.asarray(entry["scale"]) * tile
+    return out
+
+
+def _radiance(coeffs, lighting):
+    """max(0, L . t) per texel and channel (glTF frame both)."""
+    n2 = min(len(lighting), coeffs.shape[-1])
+    return np.maximum(np.einsum("...i,ic->...c", coeffs[..., :n2], np.asarray(lighting)[:n2]), 0.0)
+
+
+def test_a_texel_bake_exports_as_png_planes_and_its_uv_map(texel_demo_scene, tmp_path, capsys, validator_modules):
+    from prt_addon import api
+    from prt_addon.blender.export import gltf
+    from prt_addon.blender.scene import storage, texel_storage
+
+    scene = texel_demo_scene
+    ground = scene.objects["Ground"]
+    bake, _ = storage.read_bake_record(ground.data)
+    stored = texel_storage.read_texel_transfer(bake, padded=True).astype(np.float64)
+    n2 = bake.order**2
+    expected = stored.copy()
+    expected[..., :n2] = gltf.to_gltf_frame(stored[..., :n2].reshape(-1, n2).T).T.reshape(stored.shape[:2] + (n2,))
+    expected = expected[::-1]  # row 0 the top: v_glTF = 1 - v = 0
+    figures = {}
+    for transfer, bits in (("snorm16", 16), ("snorm8", 8)):
+        path = api.export_gltf(str(tmp_path / f"{transfer}.glb"), transfer=transfer)
+        document, _acc = _read_glb(path)
+        from prt_addon.blender.export import glb
+
+        binary = glb.read(path)[1][0][1]
+        meshes = {m["name"]: m for m in document["meshes"] if "PRT_lighting" in m.get("extras", {})}
+        meta = meshes["Grid"]["extras"]["PRT_lighting"]
+        assert meta["version"] == 3 and meta["domain"] == "TEXEL" and meta["attributes"] == []
+        assert meta["transfer_encoding"] == f"unorm{bits}_png"
+        assert meta["texel"]["texcoord"] == 1 and meta["texel"]["uv_map"] == "Lightmap"
+        assert meta["texel"]["resolution"] == TEXEL_RESOLUTION and len(meta["texel"]["textures"]) == bits // 8
+        assert meshes["Suzanne"]["extras"]["PRT_lighting"]["version"] == 2  # the vertex bake as before
+        decoded = _planes(document, binary, meta)
+        steps = np.array([e["scale"] for e in meta["texel"]["decode"]]).ravel() / (2.0**bits - 1)
+        assert np.all(np.abs(decoded - expected) <= 0.5 * steps + 1e-7)  # within half a step
+        lighting = document["scenes"][0]["extras"]["PRT_lighting"]["coefficients"]
+        truth, got = _radiance(expected, lighting), _radiance(decoded, lighting)
+        diff = np.abs(got - truth).max(axis=-1) / truth.mean()
+        figures[transfer] = (diff.mean(), np.percentile(diff, 99), diff.max(), os.path.getsize(path))
+        if transfer == "snorm16":
+            assert diff.max() < BUDGET / 10
+            _check_texcoord(document, path, ground)
+            env = dict(os.environ, NODE_PATH=validator_modules)
+            out = subprocess.run(
+                ["node", "-e", VALIDATE_JS, path], capture_output=True, text=True, env=env, timeout=120
+            )
+            assert out.returncode == 0, out.stderr
+            issues = json.loads(out.stdout)
+            assert issues["numErrors"] == 0, [m for m in issues["messages"] if m["severity"] == 0]
+    with capsys.disabled():
+        for name, (mean, p99, top, size) in figures.items():
+            print(
+                f"\ntexel export {name}: radiance error mean {100 * mean:.4f} % p99 {100 * p99:.4f} % max {100 * top:.4f} %, {size} bytes"
+            )
+
+
+def _check_texcoord(document, path, ground):
+    """The primitive's TEXCOORD_1 is the Lightmap UV map as (u, 1 - v), vertex by vertex."""
+    _doc, accessor = _read_glb(path)
+    mesh = next(m for m in document["meshes"] if m["name"] == "Grid")
+    uv = ground.data.uv_layers["Lightmap"].uv
+    values = np.empty(len(uv) * 2, np.float32)
+    uv.foreach_get("vector", values)
+    values = values.reshape(-1, 2)
+    positions = np.empty(len(ground.data.vertices) * 3, np.float32)
+    ground.data.vertices.foreach_get("co", positions)
+    corners = np.empty(len(ground.data.loops), np.int32)
+    ground.data.loops.foreach_get("vertex_index", corners)
+    blender = {
+        (tuple(np.round(positions.reshape(-1, 3)[v], 4)), (round(float(u), 4), round(1.0 - float(w), 4)))
+        for v, (u, w) in zip(corners, values)
+    }
+    for prim in mesh["primitives"]:
+        pos = accessor(prim["attributes"]["POSITION"])
+        tex = accessor(prim["attributes"]["TEXCOORD_1"])
+        blender_pos = np.c_[pos[:, 0], -pos[:, 2], pos[:, 1]]  # glTF (x, y, z) = Blender (x, z, -y)
+        got = {
+            (tuple(np.round(p, 4)), (round(float(t[0]), 4), round(float(t[1]), 4))) for p, t in zip(blender_pos, tex)
+        }
+        assert got <= blender and len(got) > 100
+
+
+@pytest.mark.parametrize("transfer", ["float32"])
+def test_float32_asked_of_a_texel_bake_writes_16_bit(texel_demo_scene, tmp_path, transfer):
+    """PNG planes hold no floats: a texel bake goes in 16 bits whatever encoding the vertices get."""
+    from prt_addon import api
+
+    document, _ = _read_glb(api.export_gltf(str(tmp_path / "f.glb"), transfer=transfer))
+    metas = {
+        m["name"]: m["extras"]["PRT_lighting"] for m in document["meshes"] if "PRT_lighting" in m.get("extras", {})
+    }
+    assert metas["Grid"]["transfer_encoding"] == "unorm16_png"
+    assert metas["Suzanne"]["transfer_encoding"] == "float32" and metas["Suzanne"]["version"] == 1
