@@ -81,15 +81,7 @@ def test_room_corners_split_lights_like_cycles(bpy_module, empty_scene):
     top): every vertex is a corner where two or three of them meet."""
     bpy, scene = bpy_module, empty_scene
     cl.hdri_world(bpy, scene)
-    s = 2.0
-    quads = {
-        "floor": [(-s, -s, 0), (s, -s, 0), (s, s, 0), (-s, s, 0)],
-        "left": [(-s, -s, 0), (-s, s, 0), (-s, s, 2 * s), (-s, -s, 2 * s)],
-        "right": [(s, -s, 0), (s, -s, 2 * s), (s, s, 2 * s), (s, s, 0)],
-        "back": [(-s, s, 0), (s, s, 0), (s, s, 2 * s), (-s, s, 2 * s)],
-        "ceiling": [(-s, -s, 2 * s), (-s, 0, 2 * s), (s, 0, 2 * s), (s, -s, 2 * s)],
-    }
-    objects = [cl.mesh_object(bpy, scene, name, cl.quad(corners)) for name, corners in quads.items()]
+    objects = [cl.mesh_object(bpy, scene, name, cl.quad(corners)) for name, corners in cl.room_quads().items()]
     split, unsplit, cycles = _bake_and_shade(bpy, scene, objects, objects)
     for obj in objects:
         a, b, c = (v[obj.name] @ cl.LUMA for v in (split, unsplit, cycles))

@@ -105,3 +105,41 @@ def test_wall_beside_side_wall_is_shadowed_to_the_join(bpy_module, join_scene, s
     image = _render_with_sun(bpy_module, scene, s)
     lit = SKY + POWER / np.pi * max(0.0, -s[1])
     np.testing.assert_allclose(image[rows, cols, :3], np.tile(lit, (len(x), 1)), rtol=1e-4, atol=1e-5)
+
+
+def test_room_corners_in_the_display_like_shade(bpy_module, empty_scene, gpu_ready):
+    """The single-quad room of the Cycles test (tests/cycles/test_contact_lights_cycles.py, where
+    api.shade's corners are checked against Cycles) baked and drawn under courtyard.exr with its
+    lights split: 3 cm inside each corner the display agrees with api.shade at the corner. Before
+    the shadow lookups moved along the contact tangent, the floor's back-right corner was drawn
+    at 0.110 against 0.021."""
+    from helpers import contact_lights as cl
+
+    import prt_addon.api as api
+    from prt_addon.blender.display import offscreen
+
+    bpy, scene = bpy_module, empty_scene
+    cl.hdri_world(bpy, scene)
+    size = 1024
+    add_camera(bpy, scene, location=(0.0, -10.0, 2.0), euler=(math.pi / 2, 0.0, 0.0), size=size)
+    objects = [cl.mesh_object(bpy, scene, name, cl.quad(corners)) for name, corners in cl.room_quads().items()]
+    cl.white(bpy, objects)
+    scene.prt_display.albedo_source = "WHITE"
+    bpy.context.view_layer.update()
+    api.bake(objects, order=cl.ORDER, samples=cl.DIRECTIONS)
+    api.project_world(scene, cl.ORDER, split_lights=True)
+    image = api.render_view(scene, size, size)
+    view, proj = offscreen.camera_matrices(scene, size, size)
+    for obj in objects:
+        shade = cl.shade_corners(api, obj, scene) @ cl.LUMA
+        position, normal = cl.corner_frame(obj)
+        towards = position.mean(axis=0) - position
+        inside = position + 0.03 * towards / np.linalg.norm(towards, axis=1, keepdims=True) + 1e-3 * normal
+        clip = np.c_[inside, np.ones(len(inside))] @ (proj @ view).T
+        ndc = clip[:, :2] / clip[:, 3:4]
+        rows = np.floor((1.0 - ndc[:, 1]) * 0.5 * size).astype(int)
+        cols = np.floor((ndc[:, 0] + 1.0) * 0.5 * size).astype(int)
+        drawn = image[rows, cols, :3] @ cl.LUMA
+        print(obj.name, " ".join(f"{a:.3f}/{b:.3f}" for a, b in zip(drawn, shade)))
+        assert np.all(image[rows, cols, 3] == 1.0)
+        assert np.all(np.abs(drawn - shade) <= 0.03 + 0.1 * shade), obj.name

@@ -57,6 +57,18 @@ def quad(corners):
     return build
 
 
+def room_quads(s=2.0):
+    """{name: corners} of a room of five single quads facing in: a floor, three walls and half a
+    ceiling (open at the front and over the back half)."""
+    return {
+        "floor": [(-s, -s, 0), (s, -s, 0), (s, s, 0), (-s, s, 0)],
+        "left": [(-s, -s, 0), (-s, s, 0), (-s, s, 2 * s), (-s, -s, 2 * s)],
+        "right": [(s, -s, 0), (s, -s, 2 * s), (s, s, 2 * s), (s, s, 0)],
+        "back": [(-s, s, 0), (s, s, 0), (s, s, 2 * s), (-s, s, 2 * s)],
+        "ceiling": [(-s, -s, 2 * s), (-s, 0, 2 * s), (s, 0, 2 * s), (s, -s, 2 * s)],
+    }
+
+
 def cycles_corners(bpy, scene, objects, samples=SAMPLES):
     """{name: (corners, 3)} E/pi per corner from Cycles' DIFFUSE / DIRECT vertex-colour bake."""
     bpy.ops.object.select_all(action="DESELECT")
