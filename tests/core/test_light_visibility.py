@@ -7,6 +7,7 @@ from scipy import integrate
 
 from prt_addon.core.lights import extraction as lights, visibility as light_vis
 from prt_addon.core.sh.projection import pixel_directions, pixel_solid_angles
+from prt_addon.core.trace import raytrace
 
 
 @pytest.fixture(scope="module")
@@ -104,3 +105,64 @@ def test_light_irradiance_closed_form_and_texel_sum(sun_image):
     np.testing.assert_allclose(shown[facing], brute, rtol=2e-3)
     assert np.all(light_vis.light_irradiance(np.zeros((3, 3)), found) == 0.0)
     assert light_vis.light_irradiance(normals, []).shape == (200, 3)
+
+
+class _Recorder:
+    """An occluder that blocks nothing and keeps the origins it was asked about."""
+
+    def __init__(self):
+        self.origins = []
+
+    def occluded(self, origins, dirs):
+        self.origins.append(np.array(origins))
+        return np.zeros(len(origins), dtype=bool)
+
+
+def test_light_visibility_moves_origins_along_the_contact_tangents():
+    from prt_addon.core.transfer.contact import inward_tangents
+
+    # The foot of a wall (x = 0, facing +x, one quad) standing on a floor: its contact tangent
+    # points up the wall, and the rays start there, not in the floor's plane.
+    wall = np.array([[0.0, -1.0, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 2.0], [0.0, -1.0, 2.0]])
+    triangles = np.array([[0, 1, 2], [0, 2, 3]])
+    points = wall[:2]
+    normals = np.array([[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    tangents = inward_tangents(points, normals, wall, triangles, point_vertex=[0, 1])
+    sun = lights.Light(direction=unit(0.0, 10.0), power=np.ones(3), angle=0.0)
+    recorder = _Recorder()
+    light_vis.light_visibility(points, normals, [sun], recorder, offset=0.01, tangents=tangents)
+    np.testing.assert_allclose(recorder.origins[0], points + 0.01 * (normals + tangents), rtol=1e-6)
+    assert np.all(recorder.origins[0][:, 2] > 0.005)  # above the floor
+    recorder = _Recorder()
+    light_vis.light_visibility(points, normals, [sun], recorder, offset=0.01)
+    np.testing.assert_allclose(recorder.origins[0], points + 0.01 * normals, rtol=1e-6)
+    with pytest.raises(ValueError, match="tangents"):
+        light_vis.light_visibility(points, normals, [sun], recorder, offset=0.01, tangents=tangents[:1])
+
+
+@pytest.mark.skipif(not raytrace.EMBREE_AVAILABLE, reason="embreex not installed")
+def test_light_below_the_floor_is_hidden_from_a_wall_foot():
+    """A light 10 degrees below the horizon, seen from the foot of a wall on a floor: the floor
+    hides it (Cycles: 0). From origins moved along the tangent the floor is hit at t ~ offset /
+    sin 10 degrees; a light 10 degrees above stays seen."""
+    from prt_addon.core.transfer.contact import inward_tangents
+
+    floor = np.array([[-5.0, -5.0, 0.0], [5.0, -5.0, 0.0], [5.0, 5.0, 0.0], [-5.0, 5.0, 0.0]])
+    y = np.linspace(-0.9, 0.9, 7)
+    wall = np.r_[np.c_[np.zeros_like(y), y, np.zeros_like(y)], np.c_[np.zeros_like(y), y, np.full_like(y, 2.0)]]
+    i = np.arange(len(y) - 1)
+    k = len(y)
+    wall_tris = np.r_[np.c_[i, i + 1, k + i + 1], np.c_[i, k + i + 1, k + i]]  # facing +x
+    quads = np.array([[0, 1, 2], [0, 2, 3]])
+    occluder = raytrace.EmbreeOccluder(
+        np.r_[floor, wall].astype(np.float32), np.r_[quads, wall_tris + 4].astype(np.int32)
+    )
+    points = wall[:k]
+    normals = np.tile([1.0, 0.0, 0.0], (k, 1))
+    tangents = inward_tangents(points, normals, wall, wall_tris)
+    assert np.all(tangents[:, 2] > 0.7)  # up the wall (diagonally at its two ends)
+    np.testing.assert_allclose(tangents[:, 0], 0.0, atol=1e-6)
+    below = lights.Light(direction=unit(0.0, -10.0), power=np.ones(3), angle=0.0)
+    above = lights.Light(direction=unit(0.0, 10.0), power=np.ones(3), angle=0.0)
+    seen = light_vis.light_visibility(points, normals, [below, above], occluder, offset=1e-3, tangents=tangents)
+    np.testing.assert_array_equal(seen, np.tile([0.0, 1.0], (k, 1)))

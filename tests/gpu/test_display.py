@@ -44,8 +44,8 @@ def test_shader_compiles_for_every_order(gpu_ready, order):
     count = storage.attribute_count(order)
     shader = display_shader.get_shader(count)
     assert shader is not None
-    # Orders 1..7 fit in vertex attributes (pos + albedo + 14); 8 and up use the texture path.
-    assert display_shader.shader_mode(count) == ("ATTR" if order <= 7 else "TEXTURE")
+    # Orders 1..6 fit in vertex attributes (pos, albedo, normal, contact tangent + 12); 7 and up use the texture path.
+    assert display_shader.shader_mode(count) == ("ATTR" if order <= 6 else "TEXTURE")
 
 
 def test_shade_matches_world_frame_expectation(bpy_module, lit_scene):

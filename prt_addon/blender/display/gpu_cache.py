@@ -7,6 +7,7 @@ by modifiers or shape keys move (their batches are cached per object).
 import gpu
 import numpy as np
 
+from ...core.transfer.contact import inward_tangents
 from .. import caches
 from ..scene import mesh_read, storage, texel_storage
 from ..scene.materials import element_albedo, element_count
@@ -123,8 +124,14 @@ def build_mesh_entry(
     tris = tris.reshape(-1, 3)
     mat_index = np.empty(ntri, dtype=np.int32)
     mesh.loop_triangles.foreach_get("material_index", mat_index)
+    # The bake's contact tangents per element: the sun shader moves its shadow-map lookups along
+    # them, off a surface that touches this one (shader_suns.py; docs/display.md, "Joins").
     if domain == "CORNER":
-        positions = np.ascontiguousarray(positions[mesh_read.read_corner_verts(mesh)])
+        corner_verts = mesh_read.read_corner_verts(mesh)
+        tangents = inward_tangents(positions[corner_verts], normals, positions, corner_verts[tris], corner_verts)
+        positions = np.ascontiguousarray(positions[corner_verts])
+    else:
+        tangents = inward_tangents(positions, normals, positions, tris)
     albedo = element_albedo(mesh, domain, albedo_mode, albedo_attr)
 
     vec4s = transfer_vec4s(info.count, info.channels)
@@ -134,6 +141,7 @@ def build_mesh_entry(
     fmt.attr_add(id="prt_pos", comp_type="F32", len=3, fetch_mode="FLOAT")
     fmt.attr_add(id="prt_albedo", comp_type="F32", len=4, fetch_mode="FLOAT")
     fmt.attr_add(id="prt_nrm", comp_type="F32", len=3, fetch_mode="FLOAT")
+    fmt.attr_add(id="prt_tan", comp_type="F32", len=3, fetch_mode="FLOAT")
     if mode == "ATTR":
         for k in range(vec4s):
             fmt.attr_add(id=f"prt_t{k}", comp_type="F32", len=4, fetch_mode="FLOAT")
@@ -143,6 +151,7 @@ def build_mesh_entry(
     vbo.attr_fill("prt_pos", positions)
     vbo.attr_fill("prt_albedo", albedo)
     vbo.attr_fill("prt_nrm", np.ascontiguousarray(normals, dtype=np.float32))
+    vbo.attr_fill("prt_tan", tangents.astype(np.float32))
     texture, per_row, grid = None, 0, None
     if mode == "ATTR":
         for k in range(vec4s):

@@ -1,7 +1,7 @@
 """The PRT shader: radiance sum_i L_i t_i per vertex (attributes or a texture) or per pixel (texel bakes).
 
 The transfer t comes as vertex attributes while they fit in the 16 vertex-attribute limit
-(orders <= 7), otherwise from an RGBA32F texture read with texelFetch at gl_VertexID; the light
+(orders <= 6), otherwise from an RGBA32F texture read with texelFetch at gl_VertexID; the light
 is a uniform buffer (std140, vec4-padded). The vertex shader computes max(sum_i L_i t_i, 0) per
 colour channel times the albedo; the fragment shader writes it through the scene's display
 transform (colour.GLSL: display_transform, one 3D-table lookup; display_mode 0 leaves it linear).
@@ -16,11 +16,12 @@ from .. import caches
 from . import colour
 from .shader_suns import UBO_SOURCE, add_suns
 
-# GL guarantees (and llvmpipe offers) 16 vertex attributes; position and albedo use two.
+# GL guarantees (and llvmpipe offers) 16 vertex attributes; position, albedo, and for the suns
+# the normal and the contact tangent (shader_suns.py) use four.
 MAX_VERTEX_ATTRIBUTES = 16
 
 
-MAX_ATTRIBUTE_TRANSFER = MAX_VERTEX_ATTRIBUTES - 2  # 14 vec4 = 56 coefficients: orders <= 7
+MAX_ATTRIBUTE_TRANSFER = MAX_VERTEX_ATTRIBUTES - 4  # 12 vec4 = 48 coefficients: orders <= 6
 
 
 _shaders = {}

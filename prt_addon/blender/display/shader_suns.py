@@ -29,6 +29,7 @@ WIDE_BLOCKER_TAPS = 6  # a wide light's views: many maps average out, each one f
 WIDE_PCF_TAPS = 8
 MAX_RADIUS = 16.0  # texels: widest penumbra filtered
 MAX_SLOPE = 20.0  # tan of the receiver's angle to the light, capped for the bias
+CONTACT_SHIFT = 2.0  # lookups move this many biases along the contact tangent (docs/display.md, "Joins")
 
 UBO_SOURCE = (
     f"struct PRTSuns {{ vec4 nrm[3]; vec4 to_light[{3 * MAX_VIEWS}]; vec4 dir[{MAX_VIEWS}]; "
@@ -80,6 +81,8 @@ float view_visibility(sampler2D maps, int v, vec3 n, int blocker_taps, int pcf_t
   vec4 p = vec4(local_pos, 1.0);
   vec3 q = vec3(dot(suns.to_light[3 * v], p), dot(suns.to_light[3 * v + 1], p),
                 dot(suns.to_light[3 * v + 2], p));
+  vec3 dq = vec3(dot(suns.to_light[3 * v].xyz, local_tan), dot(suns.to_light[3 * v + 1].xyz, local_tan),
+                 dot(suns.to_light[3 * v + 2].xyz, local_tan));
   float texel = suns.params[v].x;
   float tan_a = suns.params[v].y;
   float res = suns.params[v].z;
@@ -94,6 +97,14 @@ float view_visibility(sampler2D maps, int v, vec3 n, int blocker_taps, int pcf_t
   }}
   grad *= texel;
   float bias = texel * (1.0 + slope);
+  // Where another surface touches this one (a wall under a ceiling), the map holds that surface
+  // at the receiver's own depth and the bias lets it through: the lookup moves into the
+  // receiver's own surface along its contact tangent (core.transfer.contact.inward_tangents,
+  // as the bake's ray origins do), by CONTACT_SHIFT biases in world units times its length.
+  float moved = length(vec3(dq.xy * texel, dq.z));
+  if (moved > 0.0) {{
+    q += dq * ({CONTACT_SHIFT} * bias * length(local_tan) / moved);
+  }}
   float search = clamp(q.z * tan_a / texel, 1.0, {MAX_RADIUS});
   float sum = 0.0;
   float found = 0.0;
@@ -142,6 +153,7 @@ def add_suns(info, layout, vertex_source, attr_index):
     compact, wide = layout
     info.uniform_buf(1, "PRTSuns", "suns")
     info.vertex_in(attr_index, "VEC3", "prt_nrm")
+    info.vertex_in(attr_index + 1, "VEC3", "prt_tan")
     info.sampler(SHARP_SLOT, "FLOAT_2D", "sharp_maps")
     info.sampler(WIDE_SLOT, "FLOAT_2D", "wide_maps")
     iface = gpu.types.GPUStageInterfaceInfo("prt_sun_iface")
@@ -149,12 +161,14 @@ def add_suns(info, layout, vertex_source, attr_index):
     iface.smooth("VEC3", "surface_albedo")
     iface.smooth("VEC3", "local_pos")
     iface.smooth("VEC3", "local_nrm")
+    iface.smooth("VEC3", "local_tan")
     info.vertex_out(iface)
     vertex = vertex_source.replace(
         "  gl_Position = mvp",
         "  surface_albedo = prt_albedo.rgb * tint.rgb * scale;\n"
         "  local_pos = prt_pos;\n"
         "  local_nrm = prt_nrm;\n"
+        "  local_tan = prt_tan;\n"
         "  gl_Position = mvp",
     )
     # Compact views written out one by one: on llvmpipe the same code in a loop of constant

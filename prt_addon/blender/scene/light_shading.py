@@ -6,6 +6,7 @@ import hashlib
 import numpy as np
 
 from ...core.lights import visibility as light_visibility
+from ...core.transfer.contact import inward_tangents
 from ...core.transfer.mesh import concatenate_parts, matrix_to_numpy, transform_points, vertex_points
 from .. import caches
 from . import mesh_read
@@ -40,24 +41,28 @@ def clear_cache():
 
 
 def element_points(obj_eval, domain):
-    """(world points, world unit normals, offset) per element of the stored bake's domain: one
-    row per vertex (POINT) or per face corner (CORNER), read as the bake reads them."""
+    """(world points, world unit normals, offset, tangents) per element of the stored bake's
+    domain: one row per vertex (POINT) or per face corner (CORNER), read as the bake reads them;
+    tangents are the bake's contact tangents (core.transfer.contact.inward_tangents), which move
+    the ray origins into the element's own surface where another surface touches it."""
     mesh = obj_eval.data
     matrix = matrix_to_numpy(obj_eval.matrix_world)
     positions = mesh_read.read_positions(mesh)
     points = mesh_read.bake_points(mesh, matrix, positions)
+    if domain != "CORNER" and points.scatter is not None:  # the normals split since the bake
+        points = vertex_points(matrix, positions, mesh_read.read_vertex_normals(mesh))
+    world = transform_points(matrix, positions)
+    triangles = mesh_read.read_triangles(mesh, positions)
+    tangents = inward_tangents(points.positions, points.normals, world, triangles, points.vertex)
     if domain == "CORNER":
         rows = mesh_read.read_corner_verts(mesh) if points.scatter is None else points.scatter
-        world_points, normals = points.positions[rows], points.normals[rows]
+        world_points, normals, tangents = points.positions[rows], points.normals[rows], tangents[rows]
     else:
-        if points.scatter is not None:  # the normals split since the bake: one per vertex again
-            points = vertex_points(matrix, positions, mesh_read.read_vertex_normals(mesh))
         world_points, normals = points.positions, points.normals
-    world = transform_points(matrix, positions)
     diagonal = float(np.linalg.norm(world.max(axis=0) - world.min(axis=0))) if len(world) else 0.0
     biggest = float(np.abs(world).max()) if len(world) else 0.0
     offset = max(OFFSET_REL * diagonal, OFFSET_ULP * biggest, 1e-30)
-    return np.asarray(world_points, np.float64), np.asarray(normals, np.float64), offset
+    return np.asarray(world_points, np.float64), np.asarray(normals, np.float64), offset, tangents
 
 
 def scene_occluder(depsgraph, obj_eval=None):
@@ -78,7 +83,7 @@ def light_radiance(obj, depsgraph, lights, info, rays_per_light=RAYS_PER_LIGHT):
     """(elements, 3) radiance of the lights on obj, white albedo, shadowed as its bake was:
     by every visible mesh, by the object alone (self-shadow only), or not at all (shadows off)."""
     obj_eval = obj.evaluated_get(depsgraph)
-    points, normals, offset = element_points(obj_eval, info.domain)
+    points, normals, offset, tangents = element_points(obj_eval, info.domain)
     if not lights:
         return np.zeros((len(points), 3))
     record = getattr(info, "record", None)
@@ -89,6 +94,6 @@ def light_radiance(obj, depsgraph, lights, info, rays_per_light=RAYS_PER_LIGHT):
         occluder = scene_occluder(depsgraph, obj_eval if self_only else None)
         if occluder is not None:
             visibility = light_visibility.light_visibility(
-                points, normals, lights, occluder, rays_per_light=rays_per_light, offset=offset
+                points, normals, lights, occluder, rays_per_light=rays_per_light, offset=offset, tangents=tangents
             )
     return light_visibility.light_irradiance(normals, lights, visibility)

@@ -104,6 +104,7 @@ def light_visibility(
     occluder: Any,
     rays_per_light: int = 16,
     offset: npt.ArrayLike | None = None,
+    tangents: npt.ArrayLike | None = None,
 ) -> np.ndarray:
     """(P, L) fraction of each light seen from each point: of its disc, by rays_per_light rays
     to disc_directions; of a light with samples, by one ray per sample, the fraction of its
@@ -112,9 +113,12 @@ def light_visibility(
     occluder follows the core.trace.raytrace protocol: occluded(origins f32 (N, 3), dirs f32 (N, 3))
     -> bool (N,). Ray origins are point + offset * unit normal, offset scalar or (P,) as in the
     transfer bake; None: the bake's rule max(1e-4 * bounding-box diagonal, 1e-5 * largest
-    |coordinate|) over the points. Disc rays at or below the tangent plane count as blocked (the
-    surface hides them) and are not traced; points with the light's centre below the horizon get
-    0 (their irradiance is 0 anyway). A disc light of angle 0 gets one ray.
+    |coordinate|) over the points. tangents: None or (P, 3), each point's
+    core.transfer.contact.inward_tangents: the origins move by offset along them too, into the
+    point's own surface, as the bake's do (docs/bake.md, "Contacts"). Disc rays at or below the
+    tangent plane count as blocked (the surface hides them) and are not traced; points with the
+    light's centre below the horizon get 0 (their irradiance is 0 anyway). A disc light of
+    angle 0 gets one ray.
     """
     if isinstance(rays_per_light, bool) or not isinstance(rays_per_light, (int, np.integer)) or rays_per_light < 1:
         raise ValueError(f"rays_per_light must be an integer >= 1, got {rays_per_light!r}")
@@ -127,7 +131,13 @@ def light_visibility(
         biggest = float(np.abs(points).max()) if len(points) else 0.0
         offset = max(1e-4 * float(np.linalg.norm(extent)), 1e-5 * biggest, 1e-30)
     offset = np.broadcast_to(np.asarray(offset, dtype=np.float64), (len(points),))
-    origins = points + offset[:, None] * normals
+    lift = normals
+    if tangents is not None:
+        tangents = np.asarray(tangents, dtype=np.float64).reshape(-1, 3)
+        if len(tangents) != len(points):
+            raise ValueError("tangents must give one row per point")
+        lift = normals + tangents
+    origins = points + offset[:, None] * lift
     visibility = np.zeros((len(points), len(lights)))
     for index, light in enumerate(lights):
         if light.samples is None:
