@@ -7,6 +7,7 @@ from ..bake.job import status
 from ..bake.presets import PRESETS, preset_of
 from ..bake.reports import last_report
 from ..bake.settings import FALLBACK_SLOWDOWN, BakeReport, texel_memory
+from ..ops.bake import bounces_apply
 from .sidebar import PRTSubPanel, short_count, wrapped_label
 
 
@@ -52,9 +53,9 @@ class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         settings = context.scene.prt_bake
-        current = preset_of(settings.order, settings.samples)
+        current = preset_of(settings.order, settings.samples, settings.bounces)
         row = layout.row(align=True)
-        for key, (label, _tip, _order, _samples) in PRESETS.items():
+        for key, (label, *_values) in PRESETS.items():
             op = row.operator("prt.bake_preset", text=label, depress=current == key)
             op.preset = key
         if current == "CUSTOM":
@@ -67,8 +68,10 @@ class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
         sub.enabled = settings.shadows
         sub.prop(settings, "self_shadow_only")
         bounce_row = layout.column(align=True)
-        bounce_row.enabled = settings.shadows and not settings.self_shadow_only
+        bounce_row.enabled = bounces_apply(settings)
         bounce_row.prop(settings, "bounces")
+        if settings.target == "TEXELS" and settings.bounces:
+            bounce_row.label(text="Texels: direct light only for now")
         layout.prop(settings, "target")
         if settings.target != "VERTICES":
             texel_settings(layout, context, settings)
