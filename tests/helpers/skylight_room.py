@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from helpers.rooms import diffuse_material, open_room
+from helpers.rooms import open_room
 
 
 def skylight_room(bpy, scene, hdri="interior"):

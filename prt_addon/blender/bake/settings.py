@@ -18,7 +18,7 @@ MAX_RESOLUTION = 4096
 MAX_ORDER = 16
 MIN_SAMPLES = 2  # the API's and the Samples property's minimum
 MAX_BOUNCES = 8
-ENCLOSED_SHARE = 0.3  # the share of blocked rays above which a bake without bounces proposes them
+ENCLOSED_SHARE = 0.6  # blocked share of the rays above the surfaces past which a bake without bounces proposes them
 
 
 class BakeError(ValueError):
