@@ -207,6 +207,31 @@ def bake(
     )
 
 
+def estimate_bake(
+    objects: bpy.types.Object | Sequence[bpy.types.Object],
+    order: int = 4,
+    samples: int = 256,
+    bounces: int = 0,
+    target: str = "VERTICES",
+    resolution: int | None = None,
+    **options: Any,
+) -> dict[str, Any]:
+    """What bake() with these arguments would take, before it runs (nothing is traced): a dict
+    with elements (points baked), bounce_elements, rays (candidate rays), seconds, bytes (peak
+    memory; with bounces an upper bound), available (the machine's available memory now),
+    threads and fits (bytes within 90 % of available: else bake() refuses with BakeError).
+    options: shadows, self_shadow_only, direction_set, threads, texel_density (docs/bake.md, "Estimates")."""
+    from .blender.bake import estimate as _estimate
+    from .blender.bake.settings import BakeSettings
+
+    if objects is not None and not isinstance(objects, (list, tuple)):
+        objects = [objects]
+    settings = BakeSettings(
+        order=order, samples=samples, bounces=bounces, target=target, resolution=resolution, **options
+    )
+    return _estimate.estimate(list(objects or []), settings).as_dict()
+
+
 def bake_status(obj: bpy.types.Object, reason: bool = False) -> str | tuple[str, str]:
     """'fresh', 'stale' (the topology changed since the bake) or 'none' for an object;
     with reason=True, a (status, explanation) pair."""

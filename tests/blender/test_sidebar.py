@@ -5,23 +5,30 @@ def test_presets_set_order_and_samples_and_custom_is_recognised(bpy_module, empt
     from prt_addon.blender.bake.presets import PRESETS, preset_of
 
     bpy = bpy_module
-    for key, (_label, _tip, order, samples) in PRESETS.items():
+    for key, (_label, _tip, order, samples, bounces) in PRESETS.items():
         assert bpy.ops.prt.bake_preset(preset=key) == {"FINISHED"}
         settings = empty_scene.prt_bake
-        assert (settings.order, settings.samples) == (order, samples)
-        assert preset_of(settings.order, settings.samples) == key
+        assert (settings.order, settings.samples, settings.bounces) == (order, samples, bounces)
+        assert preset_of(settings.order, settings.samples, settings.bounces) == key
     empty_scene.prt_bake.samples = 300
-    assert preset_of(empty_scene.prt_bake.order, empty_scene.prt_bake.samples) == "CUSTOM"
-    # The API keeps its own arguments: its default bake is the "Good" preset, as is a new scene's
-    # Bake panel (the properties' defaults).
+    assert preset_of(empty_scene.prt_bake.order, empty_scene.prt_bake.samples, 4) == "CUSTOM"
+    # A new scene's Bake panel (the properties' defaults) is the "Good" preset, with Cycles' own
+    # default count of diffuse bounces; the API keeps Good's order and samples and bakes the direct
+    # transfer unless asked for bounces (its callers compare with Cycles' DIRECT pass).
     import inspect
 
     from prt_addon import api
 
     parameters = inspect.signature(api.bake).parameters
-    assert preset_of(parameters["order"].default, parameters["samples"].default) == "GOOD"
+    assert preset_of(parameters["order"].default, parameters["samples"].default, 4) == "GOOD"
+    assert parameters["bounces"].default == 0
     properties = empty_scene.prt_bake.bl_rna.properties
-    assert preset_of(properties["order"].default, properties["samples"].default) == "GOOD"
+    defaults = (properties["order"].default, properties["samples"].default, properties["bounces"].default)
+    assert preset_of(*defaults) == "GOOD"
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    with_cycles = bpy.context.scene
+    with_cycles.render.engine = "CYCLES"
+    assert with_cycles.cycles.diffuse_bounces == defaults[2]
 
 
 def test_result_line_and_report_speak_plainly_and_fit(bpy_module):

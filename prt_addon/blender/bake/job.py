@@ -22,12 +22,10 @@ from ..scene import mesh_read, storage
 from ..scene.occluders import BUILDERS
 from ..scene.parts import scene_parts
 from .bounces import BounceSystem
-from .plans import check_object
+from .estimate import estimate, refuse_past_memory
+from .plans import NO_GEOMETRY, check_object
 from .settings import BakeError, BakeReport, BakeSettings, blender_threads, fallback_note, resolve_backend
 from .texels import bakes_texels, prepare_texels, texel_image, unwrap_ahead, within_memory
-
-# Objects that hold no geometry to bake (selected with the meshes, they are left out quietly).
-NO_GEOMETRY = {"CAMERA", "LIGHT", "EMPTY", "LIGHT_PROBE", "SPEAKER", "ARMATURE", "LATTICE"}
 
 # Progress weight of one bounce pass per node, against one traced point (measured ~0.1 to 0.3).
 PASS_WORK = 0.2
@@ -76,6 +74,8 @@ class BakeJob:
             if not self.plans:
                 reasons = "; ".join(f"'{n}' {r}" for n, r in self.report.skipped + self.report.left_out)
                 raise BakeError(f"nothing to bake: {reasons}")
+            self.estimate = estimate([p.obj for p in self.plans], self.settings, depsgraph.scene)
+            refuse_past_memory(self.estimate)  # (before any ray: nothing has been allocated for it)
             self._assign_occluders()
             # The scene's BVH builds on a worker while the baked points are prepared here
             # (docs/bake.md, "Throughput"); not at all when no object can trace a ray.
@@ -323,7 +323,8 @@ class BakeJob:
             rep.note = fallback_note()
         rep.seconds = time.perf_counter() - self.started
         rep.rays_traced = stats_all.rays_traced
-        rep.rays_skipped = stats_all.rays_skipped
+        rep.rays_skipped, rep.rays_blocked = stats_all.rays_skipped, stats_all.occluded_rays
+        rep.estimate_seconds, rep.estimate_bytes = self.estimate.seconds, self.estimate.bytes
         rep.skipped_below_horizon = stats_all.skipped_below_horizon
         rep.skipped_unoccludable = stats_all.skipped_unoccludable
         rep.skipped_shadows_off = stats_all.skipped_shadows_off

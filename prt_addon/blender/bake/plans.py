@@ -10,6 +10,9 @@ from ...core.transfer.mesh import matrix_to_numpy, transform_points
 from ..scene import mesh_read
 from ..scene.parts import ray_setup
 
+# Objects that hold no geometry to bake (selected with the meshes, they are left out quietly).
+NO_GEOMETRY = {"CAMERA", "LIGHT", "EMPTY", "LIGHT_PROBE", "SPEAKER", "ARMATURE", "LATTICE"}
+
 
 @dataclass
 class _Plan:

@@ -8,6 +8,7 @@ add-on being disabled) removes the timer, ends the progress bar and closes the j
 import time
 
 import bpy
+from bpy.app.handlers import persistent
 
 from .reports import _report_to_operator, _store_report
 from .settings import BakeReport
@@ -21,6 +22,8 @@ TIMER_GAP = 0.015
 
 
 _running = set()  # operators with a live timer, removed in unregister_extra()
+
+OUTSIDE_CANCEL = "Bake cancelled (a file was loaded or the add-on disabled): nothing was changed"
 
 
 _NAVIGATION = {
@@ -86,9 +89,10 @@ class TimeSlicedRunner:
             _store_report(context.scene, BakeReport(cancelled=True, message="Bake cancelled: nothing was changed"))
             self.report({"WARNING"}, "PRT: bake cancelled, nothing was changed")
             return {"CANCELLED"}
-        if self._bake._cancel:  # cancelled from outside (the add-on was disabled): write nothing
+        if self._bake._cancel:  # cancelled from outside (a file loaded, the add-on disabled): write nothing
             self._cleanup(context)
-            self.report({"WARNING"}, "PRT: bake cancelled, nothing was changed")
+            _store_report(context.scene, BakeReport(cancelled=True, message=OUTSIDE_CANCEL))
+            self.report({"WARNING"}, f"PRT: {OUTSIDE_CANCEL}")
             return {"CANCELLED"}
         if event.type != "TIMER":
             return {"PASS_THROUGH"} if event.type in _NAVIGATION else {"RUNNING_MODAL"}
@@ -124,9 +128,26 @@ class TimeSlicedRunner:
         return {"CANCELLED"}
 
 
+@persistent
+def _on_load_pre(*_args):
+    stop_running()  # (the meshes the bake read belong to the file being closed)
+
+
+def register_extra():
+    if _on_load_pre not in bpy.app.handlers.load_pre:
+        bpy.app.handlers.load_pre.append(_on_load_pre)
+
+
 def unregister_extra():
-    """Stop a running modal bake (the add-on is being disabled): cancel it, remove its timer,
-    end the progress bar and status text, close the worker threads. Nothing is written."""
+    while _on_load_pre in bpy.app.handlers.load_pre:
+        bpy.app.handlers.load_pre.remove(_on_load_pre)
+    stop_running()
+
+
+def stop_running():
+    """Stop a running modal bake (the add-on is being disabled, or another file loaded): cancel
+    it, remove its timer, end the progress bar and status text, close the worker threads.
+    Nothing is written."""
     for op in list(_running):
         _running.discard(op)
         for step in ("cancel", "timer", "steps", "close", "progress"):

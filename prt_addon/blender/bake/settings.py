@@ -18,6 +18,7 @@ MAX_RESOLUTION = 4096
 MAX_ORDER = 16
 MIN_SAMPLES = 2  # the API's and the Samples property's minimum
 MAX_BOUNCES = 8
+ENCLOSED_SHARE = 0.6  # blocked share of the rays above the surfaces past which a bake without bounces proposes them
 
 
 class BakeError(ValueError):
@@ -118,6 +119,9 @@ class BakeReport:
     seconds: float = 0.0
     rays_traced: int = 0
     rays_skipped: int = 0
+    rays_blocked: int = 0  # traced rays that hit a surface (most of them: an enclosed scene)
+    estimate_seconds: float = 0.0  # what the estimate said before the bake (bake.estimate)
+    estimate_bytes: int = 0
     skipped_below_horizon: int = 0
     skipped_unoccludable: int = 0
     skipped_shadows_off: int = 0
@@ -140,6 +144,17 @@ class BakeReport:
     @property
     def element(self):
         return "texel" if self.target == "TEXELS" else "vertex"
+
+    def enclosed_note(self):
+        """The sentence proposing bounces for an enclosed scene baked without them, or ''."""
+        above = self.rays_traced + self.skipped_unoccludable + self.skipped_shadows_off
+        share = self.rays_blocked / above if above else 0.0
+        if self.bounces or share < ENCLOSED_SHARE:
+            return ""
+        return (
+            f"{100.0 * share:.0f} % of the rays hit other surfaces (an enclosed scene): without bounces the light "
+            "they reflect is missing and it comes out darker than Cycles; bake with Bounces 4, as Cycles"
+        )
 
     @property
     def rays_per_second(self):
@@ -185,7 +200,7 @@ class BakeReport:
                     f"; {self.bounce_points:,} points of unbaked meshes traced for them" if self.bounce_points else ""
                 )
                 lines.append(f"Bounces: {self.bounces} ({colour}), {self.bounce_seconds:.2f} s, no extra rays{extra}")
-            lines += self.albedo_notes + self.texel_notes
+            lines += self.albedo_notes + self.texel_notes + [self.enclosed_note()] * bool(self.enclosed_note())
         if self.note:
             lines.append(self.note)
         lines += [f"Skipped '{name}': {reason}" for name, reason in self.skipped]

@@ -141,12 +141,19 @@ def _draw_callback():
     draw_viewport(bpy.context)
 
 
+def draws_in(space):
+    """Whether the overlay draws in this 3D View: in Solid shading only. Material Preview and
+    Rendered show Blender's own lighting (EEVEE's or Cycles' image), left as it is for comparison."""
+    shading = getattr(space, "shading", None)
+    return shading is None or getattr(shading, "type", "SOLID") == "SOLID"
+
+
 def draw_viewport(context):
     """What the viewport's draw handler draws, for the 3D View of `context` (its scene, view layer,
-    space and region data): the baked objects over the engine's image."""
+    space and region data): the baked objects over the engine's image, in Solid shading."""
     scene = context.scene
     settings = getattr(scene, "prt", None)
-    if settings is None or not settings.show_display:
+    if settings is None or not settings.show_display or not draws_in(context.space_data):
         return
     region_data = context.region_data
     if region_data is None:

@@ -110,9 +110,11 @@ def render_view(scene=None, width=None, height=None, camera=None, objects=None, 
                 gpu.state.depth_test_set("NONE")
             if light_markers.enabled(scene):
                 light_markers.draw_markers(scene, view, projection, (width, height))
-            buf = fb.read_color(0, 0, width, height, 4, 0, "FLOAT")
-            # The buffer's numpy view has reversed strides: transpose, then reshape.
-            image = np.asarray(buf).T.reshape(height, width, 4).copy()
+        # Read from the texture, not the framebuffer: the shadow maps' and texel relights' own
+        # framebuffers, bound while drawing, can leave this one unbound ("Framebuffer is not
+        # bound" when the lights' maps were rebuilt, as right after a bake). The buffer's numpy
+        # view has reversed strides: transpose, then reshape.
+        image = np.asarray(offscreen.texture_color.read()).T.reshape(height, width, 4).copy()
     finally:
         offscreen.free()
     image = image[::-1].copy()

@@ -9,6 +9,12 @@ from ..bake.runner import TimeSlicedRunner, _running
 from ..bake.settings import BakeError, BakeReport, BakeSettings
 
 
+def bounces_apply(group):
+    """Whether the Bounces setting is used: scene shadows on, and a vertex bake (texel bakes
+    have no bounces yet)."""
+    return group.shadows and not group.self_shadow_only and group.target != "TEXELS"
+
+
 def settings_from(group):
     """BakeSettings of a PRT_PG_bake_settings. (A module function: a method on the property
     group made bpy 4.2 crash at exit after register/unregister.)"""
@@ -20,8 +26,8 @@ def settings_from(group):
         group.shadows,
         group.self_shadow_only,
         group.backend,
-        # (greyed out in the panel without scene shadows: not used then, as Blender does)
-        bounces=group.bounces if group.shadows and not group.self_shadow_only else 0,
+        # (greyed out in the panel without scene shadows or for texels: not used then, as Blender does)
+        bounces=group.bounces if bounces_apply(group) else 0,
         target=group.target,
         uv_map=group.uv_map or None,
         resolution=group.resolution or None,
@@ -73,7 +79,7 @@ class PRT_OT_bake_transfer(TimeSlicedRunner, bpy.types.Operator):
 
 
 class PRT_OT_bake_preset(bpy.types.Operator):
-    """Set the bake's order and samples to a preset"""
+    """Set the bake's order, samples and bounces to a preset"""
 
     bl_idname = "prt.bake_preset"
     bl_label = "Bake Preset"
@@ -82,7 +88,7 @@ class PRT_OT_bake_preset(bpy.types.Operator):
     preset: bpy.props.EnumProperty(
         name="Preset",
         description="Order and samples of the bake",
-        items=[(key, label, tip) for key, (label, tip, _order, _samples) in PRESETS.items()],
+        items=[(key, label, tip) for key, (label, tip, *_values) in PRESETS.items()],
         default="GOOD",
     )
 
@@ -91,9 +97,9 @@ class PRT_OT_bake_preset(bpy.types.Operator):
         return PRESETS[properties.preset][1]
 
     def execute(self, context):
-        _label, _tip, order, samples = PRESETS[self.preset]
+        _label, _tip, order, samples, bounces = PRESETS[self.preset]
         settings = context.scene.prt_bake
-        settings.order, settings.samples = order, samples
+        settings.order, settings.samples, settings.bounces = order, samples, bounces
         return {"FINISHED"}
 
 

@@ -3,10 +3,12 @@
 import bpy
 
 from ...core.trace import raytrace
+from ..bake.estimate import estimate
 from ..bake.job import status
 from ..bake.presets import PRESETS, preset_of
 from ..bake.reports import last_report
-from ..bake.settings import FALLBACK_SLOWDOWN, BakeReport, texel_memory
+from ..bake.settings import FALLBACK_SLOWDOWN, BakeError, BakeReport, texel_memory
+from ..ops.bake import bounces_apply, settings_from
 from .sidebar import PRTSubPanel, short_count, wrapped_label
 
 
@@ -45,6 +47,20 @@ def texel_settings(layout, context, settings):
         wrapped_label(layout, context, f"Memory: about {need / 2**20:,.0f} MB for {meshes} mesh(es)", icon="INFO")
 
 
+def estimate_line(layout, context, settings):
+    """'Estimate: about 3 s, up to 250 MB (11 GB available)' for the selection, or why it will not fit."""
+    try:
+        found = estimate(context.selected_objects[:256], settings_from(settings), context.scene)
+    except (BakeError, ReferenceError):
+        return
+    if not found.elements:
+        return
+    if found.fits:
+        wrapped_label(layout, context, f"Estimate: {found.line()}", icon="TIME")
+    else:
+        wrapped_label(layout, context, f"Too large: {found.line()}", icon="ERROR")
+
+
 class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
     bl_idname = "VIEW3D_PT_prt_bake"
     bl_label = "Bake Transfer"
@@ -52,9 +68,9 @@ class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         settings = context.scene.prt_bake
-        current = preset_of(settings.order, settings.samples)
+        current = preset_of(settings.order, settings.samples, settings.bounces)
         row = layout.row(align=True)
-        for key, (label, _tip, _order, _samples) in PRESETS.items():
+        for key, (label, *_values) in PRESETS.items():
             op = row.operator("prt.bake_preset", text=label, depress=current == key)
             op.preset = key
         if current == "CUSTOM":
@@ -67,8 +83,10 @@ class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
         sub.enabled = settings.shadows
         sub.prop(settings, "self_shadow_only")
         bounce_row = layout.column(align=True)
-        bounce_row.enabled = settings.shadows and not settings.self_shadow_only
+        bounce_row.enabled = bounces_apply(settings)
         bounce_row.prop(settings, "bounces")
+        if settings.target == "TEXELS" and settings.bounces:
+            bounce_row.label(text="Texels: direct light only for now")
         layout.prop(settings, "target")
         if settings.target != "VERTICES":
             texel_settings(layout, context, settings)
@@ -83,6 +101,7 @@ class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
                     f"is about {FALLBACK_SLOWDOWN} times slower",
                     icon="INFO",
                 )
+        estimate_line(layout, context, settings)
         layout.operator("prt.bake_transfer", text="Bake", icon="RENDER_STILL")
         obj = context.active_object
         if obj is not None and obj.type == "MESH":
@@ -104,6 +123,8 @@ class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
         if report is not None:
             if report.ok:
                 wrapped_label(layout, context, result_line(report), icon="INFO")
+                if report.enclosed_note():
+                    wrapped_label(layout, context, report.enclosed_note(), icon="LIGHT")
             else:
                 wrapped_label(layout, context, report.headline(), icon="ERROR")
 

@@ -1,7 +1,8 @@
-"""The sidebar tab "PRT" of the 3D View: the root panel and its World, Bake and Display panels."""
+"""The sidebar tab "PRT": the root panel (display, lighting rotation), World, Bake and Display panels."""
 
 import bpy
 
+from ..display.draw import draws_in
 from ..scene import lighting, storage
 from ..world import light_split, nodes
 from .bake_panel import VIEW3D_PT_prt_bake, VIEW3D_PT_prt_bake_options, VIEW3D_PT_prt_bake_report
@@ -16,8 +17,21 @@ class VIEW3D_PT_prt(bpy.types.Panel):
     bl_category = "PRT"
 
     def draw(self, context):
-        settings = context.scene.prt
-        self.layout.prop(settings, "show_display")
+        layout, scene = self.layout, context.scene
+        layout.prop(scene.prt, "show_display")
+        space = context.space_data
+        shading = getattr(getattr(space, "shading", None), "type", "SOLID")
+        if scene.prt.show_display and not draws_in(space):
+            wrapped_label(layout, context, f"Not drawn in {shading.title()} shading: PRT draws in Solid", icon="INFO")
+        # The lighting's turn first: the control a user reaches for after every bake.
+        col = layout.column()
+        mapping = nodes.find_mapping_node(scene.world)
+        if nodes.find_environment_node(scene.world) is None:
+            col.label(text="World has no Environment Texture", icon="INFO")
+        elif mapping is None:
+            col.operator("prt.set_light_rotation", text="Add Lighting Rotation", icon="WORLD")
+        else:
+            col.prop(mapping.inputs["Rotation"], "default_value", text="Lighting Rotation")
 
 
 class VIEW3D_PT_prt_world(PRTSubPanel, bpy.types.Panel):
@@ -44,6 +58,21 @@ class VIEW3D_PT_prt_world(PRTSubPanel, bpy.types.Panel):
         lines = layout.column(align=True)
         for line in light_split.summary(settings):
             lines.label(text=line)
+
+
+class VIEW3D_PT_prt_world_details(PRTSubPanel, bpy.types.Panel):
+    bl_idname = "VIEW3D_PT_prt_world_details"
+    bl_label = "Details"
+    bl_parent_id = "VIEW3D_PT_prt_world"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene.prt_world.stored_order >= 1
+
+    def draw(self, context):
+        settings = context.scene.prt_world
+        layout = self.layout
         col = layout.column(align=True)
         col.label(text=f"Order {settings.stored_order} from {settings.source_kind.lower()}")
         if settings.image_name:
@@ -65,14 +94,6 @@ class VIEW3D_PT_prt_display(PRTSubPanel, bpy.types.Panel):
         layout = self.layout
         scene = context.scene
         settings = scene.prt_display
-        col = layout.column()
-        mapping = nodes.find_mapping_node(scene.world)
-        if nodes.find_environment_node(scene.world) is None:
-            col.label(text="World has no Environment Texture", icon="INFO")
-        elif mapping is None:
-            col.operator("prt.set_light_rotation", text="Add Lighting Rotation", icon="WORLD")
-        else:
-            col.prop(mapping.inputs["Rotation"], "default_value", text="Lighting Rotation")
         layout.prop(settings, "albedo_source")
         if settings.albedo_source == "ATTRIBUTE":
             layout.prop(settings, "albedo_attribute")
@@ -93,6 +114,7 @@ class VIEW3D_PT_prt_display(PRTSubPanel, bpy.types.Panel):
 CLASSES = [
     VIEW3D_PT_prt,
     VIEW3D_PT_prt_world,
+    VIEW3D_PT_prt_world_details,
     VIEW3D_PT_prt_bake,
     VIEW3D_PT_prt_bake_options,
     VIEW3D_PT_prt_bake_report,

@@ -8,6 +8,7 @@ scene.prt_display.
 import bpy
 
 from ...core.lights.extraction import MAX_LIGHTS
+from ..bake.presets import CYCLES_DIFFUSE_BOUNCES
 from ..bake.settings import MAX_BOUNCES, MAX_ORDER, MAX_RESOLUTION, MIN_SAMPLES
 from ..world.projection import MAX_ORDER as MAX_WORLD_ORDER
 
@@ -142,9 +143,10 @@ class PRT_PG_bake_settings(bpy.types.PropertyGroup):
         name="Bounces",
         description=(
             "Diffuse reflections between the world and the surface (as Cycles' Light Paths > Max Bounces > "
-            "Diffuse): light bounced off other surfaces, coloured by their materials. 0: direct light only"
+            "Diffuse, whose default is 4): light bounced off other surfaces, coloured by their materials. "
+            "0: direct light only (rooms come out dark)"
         ),
-        default=0,
+        default=CYCLES_DIFFUSE_BOUNCES,
         min=0,
         max=MAX_BOUNCES,
     )

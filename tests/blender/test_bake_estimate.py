@@ -1,0 +1,59 @@
+"""The estimate before a bake (elements, rays, memory), the refusal past the available memory,
+and the report's proposal of bounces for an enclosed scene."""
+
+import pytest
+from helpers.bake_scenes import _attr_bytes, _monkey_on_ground
+from helpers.skylight_room import skylight_room
+
+from prt_addon import api
+
+
+def test_estimate_counts_the_points_and_rays_the_bake_computes(bpy_module, empty_scene):
+    bpy = bpy_module
+    ground, monkey = _monkey_on_ground(bpy, ground_cuts=20)
+    bpy.ops.mesh.primitive_cube_add(location=(2.0, 2.0, 0.5))  # flat-shaded: 24 corners with their own normal
+    cube = bpy.context.object
+    objects = [ground, monkey, cube]
+    found = api.estimate_bake(objects, order=4, samples=64)
+    report = api.bake(objects, order=4, samples=64)
+    assert found["elements"] == report.points  # (the bake's own count: vertices, or split corners)
+    assert found["rays"] == report.rays_traced + report.rays_skipped
+    assert report.estimate_seconds == pytest.approx(found["seconds"], rel=0.2)
+    assert 0 < found["bytes"] < found["available"] and found["fits"]
+    # Memory grows with the coefficients, and bounces add the nodes and their hits.
+    assert api.estimate_bake(objects, order=8, samples=64)["bytes"] > 2 * found["bytes"]
+    bounced = api.estimate_bake(objects, order=4, samples=64, bounces=4)
+    assert bounced["bytes"] > found["bytes"] and bounced["seconds"] > found["seconds"]
+    # A camera or a light in the selection counts nothing.
+    bpy.ops.object.camera_add()
+    assert api.estimate_bake([*objects, bpy.context.object], order=4, samples=64)["elements"] == report.points
+
+
+def test_a_bake_past_the_available_memory_is_refused_before_it_starts(bpy_module, empty_scene, monkeypatch):
+    from prt_addon.blender.bake import estimate
+
+    bpy = bpy_module
+    ground, monkey = _monkey_on_ground(bpy)
+    api.bake([ground, monkey], order=2, samples=16)
+    before = {o.name: _attr_bytes(o.data) for o in (ground, monkey)}
+    need = api.estimate_bake([ground, monkey], order=8, samples=256)["bytes"]
+    monkeypatch.setattr(estimate, "available_memory", lambda: need)  # (the bake may take 90 % of it)
+    assert not api.estimate_bake([ground, monkey], order=8, samples=256)["fits"]
+    with pytest.raises(ValueError, match="would take about .* of memory and .* are available: lower the order"):
+        api.bake([ground, monkey], order=8, samples=256)
+    assert {o.name: _attr_bytes(o.data) for o in (ground, monkey)} == before
+    monkeypatch.setattr(estimate, "available_memory", lambda: 2 * need)
+    assert api.bake([ground, monkey], order=8, samples=256).ok
+
+
+def test_an_enclosed_scene_baked_without_bounces_is_told_to_bake_them(bpy_module, empty_scene):
+    bpy = bpy_module
+    room = skylight_room(bpy, empty_scene)
+    report = api.bake(room, order=2, samples=32)
+    assert report.rays_blocked > 0.9 * report.rays_traced  # (every ray from inside but the skylight's)
+    assert "Bounces 4" in report.enclosed_note()
+    assert report.enclosed_note() in report.report_lines()
+    assert api.bake(room, order=2, samples=32, bounces=4).enclosed_note() == ""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    ground, monkey = _monkey_on_ground(bpy)  # open: most rays escape
+    assert api.bake([ground, monkey], order=2, samples=32).enclosed_note() == ""
