@@ -74,6 +74,7 @@ class VIEW3D_PT_prt_display(PRTSubPanel, bpy.types.Panel):
         else:
             col.prop(mapping.inputs["Rotation"], "default_value", text="Lighting Rotation")
         layout.prop(settings, "albedo_source")
+        layout.prop(settings, "specular")
         if settings.albedo_source == "ATTRIBUTE":
             layout.prop(settings, "albedo_attribute")
         row = layout.row()
