@@ -180,7 +180,7 @@ def get_shader(count, lights=None, bounce_channels=0, domain="POINT", specular=F
     if mode == "TEXEL":
         fragment = _texel_fragment(fragment, count)
     if specular:
-        vertex, fragment = shader_specular.add_specular(info, vertex, fragment, mode, first, bool(lights))
+        vertex, fragment = shader_specular.add_specular(info, vertex, fragment, mode, first, bool(lights), count)
     colour.declare(info)
     info.fragment_out(0, "VEC4", "FragColor")
     info.vertex_source(vertex)

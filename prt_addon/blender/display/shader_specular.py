@@ -16,18 +16,23 @@ disc with the widened alpha' = min(1, alpha + angle / 2) and the (alpha / alpha'
 times Turquin's compensation 1 + F0 (1 / E_ss - 1), its visibility V_v the shadow maps' one.
 """
 
+import functools
+
 import gpu
 import numpy as np
 
-from ...core.sh import frames
+from ...core.sh import analytic, frames
+from ...core.specular import occlusion
 
 SKY_SLOT = 3
 BRDF_SLOT = 4
 Y0 = 0.28209479177387814
+ROUGH_FROM, ROUGH_SPAN = 0.3, 0.3  # cones below roughness 0.3, the full transfer above 0.6
+MAX_BAND_ORDER = 32
 
 UBO_SOURCE = (
     "struct PRTSpec { vec4 model[3]; vec4 nrm[3]; vec4 frame[3]; vec4 eye; vec4 sky[3]; vec4 params; "
-    "vec4 material; };\n"
+    "vec4 material; vec4 bands[8]; };\n"
 )
 
 _FUNCTIONS = f"""
@@ -123,10 +128,9 @@ float specular_occlusion()
   b = len > 1e-8 ? b / len : spec_n;
   float cos_s = exp2(-3.32193 * spec_alpha * spec_alpha);
   float open_ = cap_intersection(0.0, cos_s, dot(spec_n, spec_r));
-  if (open_ <= 1e-7) {{
-    return 1.0;
-  }}
-  return clamp(cap_intersection(sqrt(1.0 - ao), cos_s, dot(b, spec_r)) / open_, 0.0, 1.0);
+  float cones = open_ <= 1e-7 ? 1.0 : clamp(cap_intersection(sqrt(1.0 - ao), cos_s, dot(b, spec_r)) / open_, 0.0, 1.0);
+  // Rough lobes: the lobe-weighted visibility from the full transfer (per vertex), more exact there.
+  return mix(cones, clamp(spec_occ, 0.0, 1.0), clamp((spec.material.x - {ROUGH_FROM}) / {ROUGH_SPAN}, 0.0, 1.0));
 }}
 
 void spec_setup()
@@ -204,7 +208,72 @@ def transfer_vec4(mode):
     return f"vec4({Y0}, 0.0, 0.0, 0.0)"  # a texel bake: no per-vertex transfer (open)
 
 
-def add_specular(info, vertex, fragment, mode, nrm_index, has_suns):
+def occlusion_lines(mode, count):
+    """GLSL (vertex shader) of spec_occ: core.specular.occlusion.transfer_occlusion at the
+    vertex's reflection direction, the real SH basis written out by its recurrences (core.sh.basis:
+    Q_mm = (2m - 1)!!, Q_{m+1,m} = (2m + 1) z Q_mm, Q_lm = ((2l - 1) z Q_{l-1,m} - (l + m - 1)
+    Q_{l-2,m}) / (l - m); y_lm = K_lm Q_lm Re/Im (x + i y)^m), the open transfer's part by the
+    addition theorem: sum_l k_l z_l sqrt((2l + 1) / 4 pi) P_l(n.R)."""
+    if mode == "TEXEL":
+        return "  spec_occ = 1.0;\n"
+    order = min(int(np.floor(np.sqrt(4 * count))), MAX_BAND_ORDER)
+    if mode == "ATTR":
+        coeff = lambda i: f"prt_t{i // 4}[{i % 4}]"
+        lines = []
+    else:
+        coeff = lambda i: f"q{i // 4}[{i % 4}]"
+        lines = [
+            f"  vec4 q{k} = texelFetch(transfer_tx, ivec2(col + {k}, row), 0);" for k in range(-(-order * order // 4))
+        ]
+    lines += [
+        "  vec4 sp = vec4(prt_pos, 1.0);",
+        "  vec3 sw = vec3(dot(spec.model[0], sp), dot(spec.model[1], sp), dot(spec.model[2], sp));",
+        "  vec3 sn = normalize(vec3(dot(spec.nrm[0].xyz, prt_nrm), dot(spec.nrm[1].xyz, prt_nrm), "
+        "dot(spec.nrm[2].xyz, prt_nrm)));",
+        "  vec3 sr = reflect(-normalize(spec.eye.xyz - sw * spec.eye.w), sn);",
+        "  vec3 d = spec.frame[0].xyz * sr.x + spec.frame[1].xyz * sr.y + spec.frame[2].xyz * sr.z;",
+        "  float seen = 0.0;",
+        "  float c0 = 1.0;",
+        "  float s0 = 0.0;",
+    ]
+    zonal = analytic.clamped_cosine_zonal(order)
+    band = lambda l: f"spec.bands[{l // 4}][{l % 4}]"
+    for m in range(order):
+        if m > 0:
+            lines.append(f"  float c{m} = d.x * c{m - 1} - d.y * s{m - 1};")
+            lines.append(f"  float s{m} = d.x * s{m - 1} + d.y * c{m - 1};")
+        double_factorial = float(np.prod(np.arange(2 * m - 1, 0, -2))) if m > 0 else 1.0
+        for l in range(m, order):
+            if l == m:
+                q = f"{double_factorial!r}"
+            elif l == m + 1:
+                q = f"{2 * m + 1}.0 * d.z * Q{l - 1}_{m}"
+            else:
+                q = f"({2 * l - 1}.0 * d.z * Q{l - 1}_{m} - {l + m - 1}.0 * Q{l - 2}_{m}) / {l - m}.0"
+            lines.append(f"  float Q{l}_{m} = {q};")
+            k = np.sqrt((2 * l + 1) / (4 * np.pi) / np.prod(np.arange(l - m + 1, l + m + 1, dtype=np.float64)))
+            if m == 0:
+                lines.append(f"  seen += {band(l)} * {coeff(l * l + l)} * ({k!r} * Q{l}_0);")
+            else:
+                k *= np.sqrt(2.0)
+                lines.append(
+                    f"  seen += {band(l)} * ({k!r} * Q{l}_{m}) * ({coeff(l * l + l + m)} * c{m} + "
+                    f"{coeff(l * l + l - m)} * s{m});"
+                )
+    lines += ["  float mu = dot(sn, sr);", "  float p0 = 1.0;", "  float p1 = mu;"]
+    open_terms = [f"{band(0)} * {zonal[0] * np.sqrt(1 / (4 * np.pi))!r}"]
+    if order > 1:
+        open_terms.append(f"{band(1)} * {zonal[1] * np.sqrt(3 / (4 * np.pi))!r} * mu")
+    for l in range(2, order):
+        lines.append(f"  float p{l} = ({2 * l - 1}.0 * mu * p{l - 1} - {l - 1}.0 * p{l - 2}) / {l}.0;")
+        if zonal[l] != 0.0:
+            open_terms.append(f"{band(l)} * {zonal[l] * np.sqrt((2 * l + 1) / (4 * np.pi))!r} * p{l}")
+    lines.append("  float open_ = " + " + ".join(open_terms) + ";")
+    lines.append("  spec_occ = open_ > 1e-8 ? seen / open_ : 1.0;")
+    return "\n".join(lines) + "\n"
+
+
+def add_specular(info, vertex, fragment, mode, nrm_index, has_suns, count=1):
     """Declare the specular inputs on `info`; -> (vertex, fragment) sources. nrm_index: the
     attribute slot of prt_nrm (declared here unless the suns declared it)."""
     info.uniform_buf(2, "PRTSpec", "spec")
@@ -217,11 +286,12 @@ def add_specular(info, vertex, fragment, mode, nrm_index, has_suns):
     iface.smooth("VEC3", "spec_nrm")
     iface.smooth("VEC3", "spec_albedo")
     iface.smooth("VEC4", "spec_vis")
+    iface.smooth("FLOAT", "spec_occ")
     info.vertex_out(iface)
     vertex = vertex.replace(
         "  gl_Position = mvp",
         "  spec_pos = prt_pos;\n  spec_nrm = prt_nrm;\n  spec_albedo = prt_albedo.rgb * tint.rgb * scale;\n"
-        f"  spec_vis = {transfer_vec4(mode)};\n  gl_Position = mvp",
+        f"  spec_vis = {transfer_vec4(mode)};\n{occlusion_lines(mode, count)}  gl_Position = mvp",
         1,
     )
     main = "void main()\n{\n"
@@ -241,7 +311,7 @@ def spec_ubo_bytes(matrix_world, frame, eye, sky_rows, sky, material):
     an orthographic view), the world -> sky image rows, (levels, width, height, 0), and the
     slot's (roughness, metallic, dielectric F0, 1) (principled_specular; 0 in w: diffuse only)."""
     mw = np.asarray(matrix_world, dtype=np.float64)
-    data = np.zeros((15, 4))
+    data = np.zeros((23, 4))
     data[0:3] = mw[:3]
     data[3:6, :3] = np.linalg.inv(mw[:3, :3]).T
     data[6:9, :3] = frame
@@ -249,7 +319,14 @@ def spec_ubo_bytes(matrix_world, frame, eye, sky_rows, sky, material):
     data[10:13, :3] = sky_rows
     data[13, :3] = (sky.levels, sky.width, sky.height)
     data[14] = material
+    data[15:23] = _bands(material[0]).reshape(8, 4)
     return data.astype(np.float32).tobytes()
+
+
+@functools.lru_cache(maxsize=64)
+def _bands(roughness):
+    """(32,) k_l of the slot's lobe (core.specular.occlusion.lobe_bands), for every order."""
+    return occlusion.lobe_bands(float(max(roughness * roughness, 1e-3)), MAX_BAND_ORDER)
 
 
 def eye_point(view_projection):
