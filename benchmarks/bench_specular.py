@@ -23,7 +23,6 @@ sys.path.insert(0, os.path.join(here, "..", "tests"))
 import bpy
 import gpu
 import mathutils
-import numpy as np
 from bench_display import make_sphere, write_transfer
 from helpers.worlds import image_world, sunny_image
 

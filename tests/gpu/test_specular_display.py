@@ -124,3 +124,16 @@ def test_rotation_turns_the_highlight(bpy_module, empty_scene, gpu_ready):
         seen.append(got)
     assert np.linalg.norm(seen[0] - seen[1]) > 10.0 and np.linalg.norm(seen[0] - seen[2]) > 10.0
     assert math.isfinite(float(image[..., :3].sum()))
+
+
+@pytest.mark.parametrize("order", [1, 4, 8, 12])
+@pytest.mark.parametrize("lights", [None, (1, 0), (1, 2)])
+def test_specular_shader_compiles_for_every_path(gpu_ready, order, lights):
+    """Vertex attributes (orders <= 7) or the transfer texture, with and without split lights
+    (compact and wide views), bounced bakes and texel bakes."""
+    from prt_addon.blender.display import shader as display_shader
+    from prt_addon.blender.scene import storage
+
+    count = storage.attribute_count(order)
+    for channels, domain in ((0, "POINT"), (3, "POINT"), (0, "TEXEL")):
+        assert display_shader.get_shader(count, lights, channels, domain, specular=True) is not None
