@@ -15,9 +15,11 @@ import numpy as np
 from ..scene import storage
 from ..scene.lighting import bounce_light_extra, exposure_scale, light_in_local_frame, world_light, world_lights
 from ..scene.materials import _slot_tints, display_settings, material_colour
-from . import colour, light_markers, texel_relight
+from ..scene.principled import principled_specular
+from . import colour, light_markers, sky_texture, texel_relight
 from .gpu_cache import ObjectState, _object_cache, _prune, clear_caches, get_mesh_entry
 from .shader import get_shader, light_ubo_bytes
+from .shader_specular import bind_slot, bind_textures, eye_point
 from .shader_suns import MAX_SUNS, suns_ubo_bytes, view_layout
 from .shadows import update_shadow_maps
 
@@ -64,6 +66,9 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
     lights_tag = tuple((tuple(x.direction), tuple(x.power), x.angle) for x in all_lights)
     maps = update_shadow_maps(scene, suns, depsgraph) if suns else None
     layout = view_layout(maps) if maps is not None else None
+    use_specular = bool(getattr(getattr(scene, "prt_display", None), "specular", False)) and bool(objects)
+    sky = sky_texture.sky_texture(scene) if use_specular else None
+    spec_frame = (eye_point(vp), sky_texture.sky_rows(scene), sky, sky_texture.brdf_texture()) if sky else None
     drawn = 0
     for obj in objects:
         info, _problem = storage.usable_bake(obj.data, check_topology=False)
@@ -72,7 +77,9 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
         entry = get_mesh_entry(obj.data, info, albedo_mode, albedo_attr, obj, depsgraph)
         if not entry.batches:
             continue
-        shader = get_shader(info.count, layout, info.channels, info.domain)
+        slot_specular = [principled_specular(slot.material) for slot in obj.material_slots] if sky else []
+        specular = any(x is not None for x in slot_specular)
+        shader = get_shader(info.count, layout, info.channels, info.domain, specular)
         state = _object_cache.setdefault(obj.as_pointer(), ObjectState())
         mw = np.array(obj.matrix_world, dtype=np.float64)
         size_key = (info.count, info.channels)
@@ -94,6 +101,8 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
         colour.bind(shader, display_lut)
         if suns:
             _bind_suns(shader, state, suns, maps, mw)
+        if specular:
+            bind_textures(shader, spec_frame)
         if entry.texel_grid is not None:
             shader.uniform_int("texel_grid", entry.texel_grid)
             shader.uniform_sampler("transfer_tx", _relit(state, entry, info.count))
@@ -108,6 +117,9 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
             elif albedo_mode == "MATERIAL":
                 tint = material_colour(None)
             shader.uniform_float("tint", tint)
+            if specular:
+                slot = min(mat_index, len(slot_specular) - 1)
+                bind_slot(shader, state, slot, mw, spec_frame, slot_specular[slot])
             batch.draw(shader)
         drawn += 1
     return drawn

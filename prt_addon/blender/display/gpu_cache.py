@@ -27,7 +27,7 @@ class MeshEntry:
 
 
 class ObjectState:
-    __slots__ = ("ubo", "light_key", "suns_ubo", "suns_bytes", "relit", "relit_key")
+    __slots__ = ("ubo", "light_key", "suns_ubo", "suns_bytes", "relit", "relit_key", "spec_ubo", "spec_bytes")
 
     def __init__(self):
         self.relit = None  # texel_relight.Relit of a texel bake
@@ -36,6 +36,8 @@ class ObjectState:
         self.light_key = None
         self.suns_ubo = None
         self.suns_bytes = None
+        self.spec_ubo = None
+        self.spec_bytes = None
 
 
 _mesh_cache = {}  # (mesh pointer, object pointer or 0 when undeformed) -> MeshEntry

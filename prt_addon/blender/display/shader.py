@@ -13,7 +13,7 @@ import gpu
 import numpy as np
 
 from .. import caches
-from . import colour
+from . import colour, shader_specular
 from .shader_suns import UBO_SOURCE, add_suns
 
 # GL guarantees (and llvmpipe offers) 16 vertex attributes; position, albedo, and for the suns
@@ -107,14 +107,15 @@ def transfer_vec4s(count, bounce_channels=0):
     return count * (1 + bounce_channels)
 
 
-def get_shader(count, lights=None, bounce_channels=0, domain="POINT"):
+def get_shader(count, lights=None, bounce_channels=0, domain="POINT", specular=False):
     """Compiled shader for `count` transfer vec4s per part, with the suns' shadow views when `lights`
     is a (compact views, wide views) pair (shader_suns.view_layout; None or (0, 0): no suns) and a bounced transfer
-    of `bounce_channels` channels (0: none) (cached). Raises RuntimeError on failure."""
+    of `bounce_channels` channels (0: none), with the Principled specular when `specular`
+    (shader_specular) (cached). Raises RuntimeError on failure."""
     total = transfer_vec4s(count, bounce_channels)
     mode = shader_mode(total, domain)
     lights = tuple(lights) if lights and any(lights) else None
-    key = (mode, count, lights, bounce_channels)
+    key = (mode, count, lights, bounce_channels, bool(specular))
     shader = _shaders.get(key)
     if shader is not None:
         return shader
@@ -123,6 +124,8 @@ def get_shader(count, lights=None, bounce_channels=0, domain="POINT"):
     typedefs = f"struct PRTLight {{ vec4 c[{3 * count}];{bounce_block} }};\n"
     if lights:
         typedefs += UBO_SOURCE  # (typedef_source keeps only its last call)
+    if specular:
+        typedefs += shader_specular.UBO_SOURCE
     info.typedef_source(typedefs)
     info.uniform_buf(0, "PRTLight", "light")
     info.push_constant("MAT4", "mvp")
@@ -167,9 +170,9 @@ def get_shader(count, lights=None, bounce_channels=0, domain="POINT"):
             f"{bounce}"
             "  }"
         )
+    first = {"ATTR": 2 + total, "TEXEL": 3}.get(mode, 2)
     if lights:
-        first = {"ATTR": 2 + total, "TEXEL": 3}.get(mode, 2)
-        vertex, fragment = add_suns(info, lights, _VERTEX_COMMON % body, first)
+        vertex, fragment = add_suns(info, lights, _VERTEX_COMMON % body, first, specular)
     else:
         iface = gpu.types.GPUStageInterfaceInfo("prt_iface")
         iface.smooth("VEC3", "radiance")
@@ -177,6 +180,8 @@ def get_shader(count, lights=None, bounce_channels=0, domain="POINT"):
         vertex, fragment = _VERTEX_COMMON % body, _FRAGMENT
     if mode == "TEXEL":
         fragment = _texel_fragment(fragment, count)
+    if specular:
+        vertex, fragment = shader_specular.add_specular(info, vertex, fragment, mode, first, bool(lights), count)
     colour.declare(info)
     info.fragment_out(0, "VEC4", "FragColor")
     info.vertex_source(vertex)

@@ -137,8 +137,20 @@ def view_layout(shadow_set):
     return len(shadow_set.maps) - wide, wide
 
 
-def _view_lines(v, maps, cosine, blocker_taps, pcf_taps):
-    """GLSL adding view `v`'s light (a literal index, or a loop variable's name) to `sun`."""
+def _view_lines(v, maps, cosine, blocker_taps, pcf_taps, specular=False):
+    """GLSL adding view `v`'s light (a literal index, or a loop variable's name) to `sun`, and
+    with `specular` its GGX (shader_specular.sun_specular) to `sun_spec`."""
+    if specular:
+        return (
+            f"  c = {cosine}(n, {v});\n"
+            "  if (c > 0.0) {\n"
+            f"    float vis = view_visibility({maps}, {v}, n, {blocker_taps}, {pcf_taps});\n"
+            f"    sun += suns.power[{v}].rgb * (c * vis);\n"
+            "    if (spec.material.w > 0.0) {\n"
+            f"      sun_spec += suns.power[{v}].rgb * (sun_specular({v}) * vis);\n"
+            "    }\n"
+            "  }\n"
+        )
     return (
         f"  c = {cosine}(n, {v});\n"
         "  if (c > 0.0) {\n"
@@ -147,9 +159,9 @@ def _view_lines(v, maps, cosine, blocker_taps, pcf_taps):
     )
 
 
-def add_suns(info, layout, vertex_source, attr_index):
+def add_suns(info, layout, vertex_source, attr_index, specular=False):
     """Declare the sun inputs on `info` for `layout` (compact views, wide views); -> (vertex
-    source, fragment source)."""
+    source, fragment source). specular: also sum the lights' GGX into `sun_spec`."""
     compact, wide = layout
     info.uniform_buf(1, "PRTSuns", "suns")
     info.vertex_in(attr_index, "VEC3", "prt_nrm")
@@ -174,11 +186,11 @@ def add_suns(info, layout, vertex_source, attr_index):
     # Compact views written out one by one: on llvmpipe the same code in a loop of constant
     # bound (not unrolled, as its body is large) made the frame slower (docs/display.md).
     # Wide views stay in one loop: written out they were no faster and compile to far more code.
-    views = [_view_lines(v, "sharp_maps", "compact_cosine", BLOCKER_TAPS, PCF_TAPS) for v in range(compact)]
+    views = [_view_lines(v, "sharp_maps", "compact_cosine", BLOCKER_TAPS, PCF_TAPS, specular) for v in range(compact)]
     if wide:
         views.append(
             f"  for (int v = {compact}; v < {compact + wide}; v++) {{\n"
-            + _view_lines("v", "wide_maps", "view_cosine", WIDE_BLOCKER_TAPS, WIDE_PCF_TAPS)
+            + _view_lines("v", "wide_maps", "view_cosine", WIDE_BLOCKER_TAPS, WIDE_PCF_TAPS, specular)
             + "  }\n"
         )
     fragment = _FUNCTIONS + (
@@ -186,7 +198,8 @@ def add_suns(info, layout, vertex_source, attr_index):
         "  vec3 n = normalize(vec3(dot(suns.nrm[0].xyz, local_nrm), dot(suns.nrm[1].xyz, local_nrm),\n"
         "                          dot(suns.nrm[2].xyz, local_nrm)));\n"
         "  vec3 sun = vec3(0.0);\n"
-        "  float c;\n"
+        + ("  vec3 sun_spec = vec3(0.0);\n" if specular else "")
+        + "  float c;\n"
         + "".join(views)
         + "  FragColor = vec4(display_transform(radiance + surface_albedo * sun), 1.0);\n}\n"
     )

@@ -95,6 +95,7 @@ class VIEW3D_PT_prt_display(PRTSubPanel, bpy.types.Panel):
         scene = context.scene
         settings = scene.prt_display
         layout.prop(settings, "albedo_source")
+        layout.prop(settings, "specular")
         if settings.albedo_source == "ATTRIBUTE":
             layout.prop(settings, "albedo_attribute")
         row = layout.row()

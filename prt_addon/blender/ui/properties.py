@@ -229,6 +229,12 @@ class PRT_PG_display(bpy.types.PropertyGroup):
         description="Colour attribute used as albedo (empty: the mesh's active colour attribute)",
         default="",
     )
+    specular: bpy.props.BoolProperty(
+        name="Specular",
+        description="Draw Principled materials' reflections: the sky prefiltered at their roughness and "
+        "the split lights' highlights (Roughness, Metallic, IOR and Specular IOR Level as constants)",
+        default=True,
+    )
     show_light_directions: bpy.props.BoolProperty(
         name="Light Directions",
         description="Draw a line from the 3D cursor toward each light split off the world, in the light's "

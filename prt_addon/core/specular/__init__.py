@@ -1,0 +1,1 @@
+"""Principled specular: the split-sum BRDF table, its energy compensation, specular occlusion."""
