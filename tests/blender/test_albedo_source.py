@@ -57,3 +57,28 @@ def test_albedo_source_attribute_constant_and_fallback(empty_scene):
     src3 = albedo_source(mat3)
     assert src3.kind == "CONSTANT" and src3.colour == pytest.approx((0.3, 0.4, 0.5))
     assert "ShaderNodeTexNoise" in src3.note
+
+
+def test_image_pixels_colour_spaces_and_missing(empty_scene):
+    import bpy
+    import numpy as np
+
+    from prt_addon.blender.scene.albedo_source import image_pixels
+
+    byte = bpy.data.images.new("byte_srgb", 2, 1)
+    byte.pixels.foreach_set(np.array([0.5, 0.04, 1.0, 1.0, 0.0, 0.2, 0.7, 1.0], dtype=np.float32))
+    rgb, note = image_pixels(byte)
+    stored = np.array(byte.pixels[:], dtype=np.float64).reshape(1, 2, 4)[..., :3]  # bytes / 255
+    expected = np.where(stored <= 0.04045, stored / 12.92, ((stored + 0.055) / 1.055) ** 2.4)
+    assert np.allclose(rgb, expected, atol=1e-6) and note == ""
+
+    flt = bpy.data.images.new("float_lin", 1, 1, float_buffer=True)
+    flt.pixels.foreach_set(np.array([2.0, -0.5, 0.25, 1.0], dtype=np.float32))
+    rgb, note = image_pixels(flt)
+    assert np.allclose(rgb[0, 0], (1.0, 0.0, 0.25)) and "clamped" in note
+
+    missing = bpy.data.images.new("missing", 1, 1)
+    missing.source = "FILE"
+    missing.filepath = "/nonexistent/albedo.png"
+    missing.reload()
+    assert image_pixels(missing)[0] is None

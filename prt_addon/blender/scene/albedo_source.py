@@ -2,6 +2,8 @@
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from .materials import active_output
 
 DIFFUSE_INPUTS = {"ShaderNodeBsdfPrincipled": "Base Color", "ShaderNodeBsdfDiffuse": "Color"}
@@ -84,3 +86,29 @@ def albedo_source(material):
     if image is not None and image.source == "TILED":
         return AlbedoSource("CONSTANT", viewport, note=f"'{material.name}': UDIM tiles are not read")
     return source
+
+
+LINEAR_SPACES = {"Non-Color", "Linear Rec.709", "Linear", "Raw"}
+
+
+def image_pixels(image):
+    """((h, w, 3) float32 scene-linear RGB clamped to [0, 1], row 0 the bottom, note), or (None,
+    note) when the image has no pixels (a missing file). Byte sRGB images are decoded with the sRGB
+    curve, float and linear ones kept; other colour spaces are read as sRGB, with a note."""
+    width, height = image.size
+    if width == 0 or height == 0:
+        return None, f"image '{image.name}' has no pixels (missing or unreadable file)"
+    px = np.empty(width * height * image.channels, dtype=np.float32)
+    image.pixels.foreach_get(px)
+    px = px.reshape(height, width, image.channels)
+    rgb = px[..., :3] if image.channels >= 3 else np.repeat(px[..., :1], 3, axis=2)
+    space, note = image.colorspace_settings.name, ""
+    if not image.is_float and space not in LINEAR_SPACES:
+        if space != "sRGB":
+            note = f"image '{image.name}': colour space {space} read as sRGB"
+        rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    if space == "Non-Color":
+        note = f"image '{image.name}' is Non-Color data on a colour input: its values are used as they are"
+    if rgb.min() < 0.0 or rgb.max() > 1.0:
+        note = (note + "; " if note else "") + f"image '{image.name}': values outside 0 to 1 clamped"
+    return np.clip(rgb, 0.0, 1.0).astype(np.float32), note
