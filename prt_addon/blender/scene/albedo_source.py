@@ -1,0 +1,114 @@
+"""What a material's diffuse albedo comes from: a constant colour, an image on a UV map, or a colour attribute."""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .materials import active_output
+
+DIFFUSE_INPUTS = {"ShaderNodeBsdfPrincipled": "Base Color", "ShaderNodeBsdfDiffuse": "Color"}
+
+
+@dataclass(frozen=True)
+class AlbedoSource:
+    """kind 'CONSTANT' (colour), 'IMAGE' (image on uv_map, "" = the active one, times colour) or
+    'ATTRIBUTE' (the colour attribute `attribute`, "" = the active one, times colour); note: why a
+    fallback was taken, "" when the material was read as it is."""
+
+    kind: str
+    colour: tuple = (1.0, 1.0, 1.0)
+    image: object = None
+    uv_map: str = ""
+    attribute: str = ""
+    note: str = ""
+
+
+def _constant(socket):
+    return tuple(float(x) for x in socket.default_value)[:3]
+
+
+def _multiply(node):
+    """(colour input, constant factor) of a Multiply node with one constant colour, else None."""
+    if node.bl_idname == "ShaderNodeMixRGB":
+        fac, a, b = node.inputs["Fac"], node.inputs["Color1"], node.inputs["Color2"]
+    elif node.bl_idname == "ShaderNodeMix" and node.data_type == "RGBA":
+        fac, a, b = node.inputs[0], node.inputs[6], node.inputs[7]
+    else:
+        return None
+    if node.blend_type != "MULTIPLY" or fac.is_linked or a.is_linked == b.is_linked:
+        return None
+    linked, const = (a, b) if a.is_linked else (b, a)
+    f = float(fac.default_value if not hasattr(fac.default_value, "__len__") else fac.default_value[0])
+    # mix(c, c * k, f) = c * ((1 - f) + f k)
+    return linked, tuple((1.0 - f) + f * k for k in _constant(const))
+
+
+def _from_socket(socket, colour, name):
+    node = socket.links[0].from_node
+    if node.bl_idname == "ShaderNodeTexImage":
+        if node.image is None:
+            return None, f"'{name}': its Image Texture node has no image"
+        vector = node.inputs["Vector"]
+        if not vector.is_linked:
+            return AlbedoSource("IMAGE", colour, node.image), ""
+        uv = vector.links[0].from_node
+        if uv.bl_idname == "ShaderNodeUVMap":
+            return AlbedoSource("IMAGE", colour, node.image, uv_map=uv.uv_map), ""
+        return None, f"'{name}': the image's coordinates come from a {uv.bl_idname} node"
+    if node.bl_idname == "ShaderNodeVertexColor":
+        return AlbedoSource("ATTRIBUTE", colour, attribute=node.layer_name), ""
+    mult = _multiply(node)
+    if mult is not None:
+        linked, k = mult
+        return _from_socket(linked, tuple(c * x for c, x in zip(colour, k)), name)
+    return None, f"'{name}': its colour comes from a {node.bl_idname} node"
+
+
+def albedo_source(material):
+    """The AlbedoSource of a material; anything not read falls back to its viewport colour, with a note."""
+    if material is None:
+        return AlbedoSource("CONSTANT", (0.8, 0.8, 0.8))
+    viewport = tuple(material.diffuse_color)[:3]
+    output = active_output(material)
+    if output is None or not output.inputs["Surface"].is_linked:
+        return AlbedoSource("CONSTANT", viewport)
+    shader = output.inputs["Surface"].links[0].from_node
+    socket_name = DIFFUSE_INPUTS.get(shader.bl_idname)
+    if socket_name is None:
+        return AlbedoSource("CONSTANT", viewport, note=f"'{material.name}': not a diffuse shader")
+    socket = shader.inputs[socket_name]
+    if not socket.is_linked:
+        return AlbedoSource("CONSTANT", _constant(socket))
+    source, note = _from_socket(socket, (1.0, 1.0, 1.0), material.name)
+    if source is None:
+        return AlbedoSource("CONSTANT", viewport, note=note + "; its viewport colour is used")
+    image = source.image
+    if image is not None and image.source == "TILED":
+        return AlbedoSource("CONSTANT", viewport, note=f"'{material.name}': UDIM tiles are not read")
+    return source
+
+
+LINEAR_SPACES = {"Non-Color", "Linear Rec.709", "Linear", "Raw"}
+
+
+def image_pixels(image):
+    """((h, w, 3) float32 scene-linear RGB clamped to [0, 1], row 0 the bottom, note), or (None,
+    note) when the image has no pixels (a missing file). Byte sRGB images are decoded with the sRGB
+    curve, float and linear ones kept; other colour spaces are read as sRGB, with a note."""
+    width, height = image.size
+    if width == 0 or height == 0:
+        return None, f"image '{image.name}' has no pixels (missing or unreadable file)"
+    px = np.empty(width * height * image.channels, dtype=np.float32)
+    image.pixels.foreach_get(px)
+    px = px.reshape(height, width, image.channels)
+    rgb = px[..., :3] if image.channels >= 3 else np.repeat(px[..., :1], 3, axis=2)
+    space, note = image.colorspace_settings.name, ""
+    if not image.is_float and space not in LINEAR_SPACES:
+        if space != "sRGB":
+            note = f"image '{image.name}': colour space {space} read as sRGB"
+        rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    if space == "Non-Color":
+        note = f"image '{image.name}' is Non-Color data on a colour input: its values are used as they are"
+    if rgb.min() < 0.0 or rgb.max() > 1.0:
+        note = (note + "; " if note else "") + f"image '{image.name}': values outside 0 to 1 clamped"
+    return np.clip(rgb, 0.0, 1.0).astype(np.float32), note
