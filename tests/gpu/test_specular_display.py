@@ -30,6 +30,7 @@ def furnace(bpy_module, empty_scene, gpu_ready):
     from prt_addon.blender.world import projection
 
     scene = empty_scene
+    scene.prt_display.specular = True
     new_world(bpy_module, scene, (1.0, 1.0, 1.0), 1.0)
     add_camera(bpy_module, scene, size=96)
     projection.project_and_store(scene, 4)
@@ -101,6 +102,7 @@ def test_rotation_turns_the_highlight(bpy_module, empty_scene, gpu_ready):
     from prt_addon.core.sh import projection as sh_projection
 
     scene = empty_scene
+    scene.prt_display.specular = True
     height, width = 64, 128
     rgb = np.full((height, width, 3), 0.05)
     row, col = 40, 20  # the patch's pixel (row 0 at the bottom)

@@ -29,6 +29,7 @@ def _principled(bpy, name, base, roughness, metallic):
 def spheres_scene(bpy, scene, hdri="city", size=(160, 96), segments=48):
     """8 spheres (radius 0.45) in two rows (metallic 0 front, 1 back) of four roughnesses on a
     12 x 12 ground, the camera looking down at them; -> (spheres {name: object}, ground)."""
+    scene.prt_display.specular = True
     world = new_world(bpy, scene)
     image = bpy.data.images.load(bundled_hdri_path(hdri), check_existing=True)
     use_image(world, image)

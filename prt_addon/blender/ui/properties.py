@@ -232,8 +232,9 @@ class PRT_PG_display(bpy.types.PropertyGroup):
     specular: bpy.props.BoolProperty(
         name="Specular",
         description="Draw Principled materials' reflections: the sky prefiltered at their roughness and "
-        "the split lights' highlights (Roughness, Metallic, IOR and Specular IOR Level as constants)",
-        default=True,
+        "the split lights' highlights (Roughness, Metallic, IOR and Specular IOR Level as constants). Off by "
+        "default: the glTF export and the web viewer draw the diffuse only",
+        default=False,
     )
     show_light_directions: bpy.props.BoolProperty(
         name="Light Directions",
