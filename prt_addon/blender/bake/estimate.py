@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
+from .. import caches
 from ..scene import mesh_read
 from .settings import SAMPLES_PER_TEXEL, BakeError, texel_memory
 
@@ -97,6 +98,7 @@ def available_memory():
 
 
 _elements = {}  # (mesh pointer, sizes) -> points of a vertex bake with split normals
+caches.on_clear(_elements.clear)  # mesh pointers mean nothing after a file load
 
 
 def mesh_elements(mesh):
