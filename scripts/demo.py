@@ -220,6 +220,7 @@ def run_scene(args, summary):
         bpy.context.view_layer.objects.active = scene.objects["Suzanne"]
         settings = scene.prt_bake
         settings.order, settings.samples, settings.shadows = args.order, args.samples, True
+        settings.bounces = 0  # compared with Cycles' direct light below (the panel's default bakes 4 bounces)
         result = bpy.ops.prt.bake_transfer()
         report = json.loads(settings.last_report)
         summary["bake"] = (result.pop(), report)
