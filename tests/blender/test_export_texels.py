@@ -10,7 +10,7 @@ from helpers.fixtures_web import TEXEL_RESOLUTION
 from helpers.gltf import VALIDATE_JS, _read_glb
 from helpers.png import _decode_png
 
-BUDGET = 0.005  # of the mean radiance (issue 29: what quantisation may add against render_view)
+BUDGET = 0.005  # of the mean radiance (what quantisation may add against render_view, docs/export.md)
 
 
 def _planes(document, binary, meta):

@@ -1,4 +1,4 @@
-"""The Principled spheres scene of issue 27: roughness x metallic spheres on a ground under a sunny
+"""The Principled spheres scene: roughness x metallic spheres on a ground under a sunny
 HDRI, and its renders: PRT's render_view, Cycles with direct light only, EEVEE."""
 
 import math
