@@ -53,6 +53,24 @@ def _accessor(document, binary, index):
     return values if k is None else np.maximum(values / k, -1.0)
 
 
+def _node_light(node, n, lighting):
+    """The world light (order n) in a glTF node's frame (its rotation and scale), and whether the
+    frame is mirrored."""
+    x, y, z, w = node.get("rotation", [0, 0, 0, 1])
+    r = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    ) @ np.diag(node.get("scale", [1, 1, 1]))
+    q, mirrored = frames.frame_rotation(r)
+    light = np.zeros((n * n, 3))
+    m = min(n * n, len(lighting))
+    light[:m] = lighting[:m]
+    return rotation.rotation_matrix(q.T, n) @ light, mirrored
+
+
 def local_lights(path):
     """{node name: (glTF mesh name, (n*n, 3) the world light in the node's frame)} of a file's baked meshes."""
     document, _chunks = glb.read(path)
@@ -62,20 +80,8 @@ def local_lights(path):
         meta = document["meshes"][node["mesh"]].get("extras", {}).get("PRT_lighting") if "mesh" in node else None
         if meta is None:
             continue
-        n = meta["order"]
-        x, y, z, w = node.get("rotation", [0, 0, 0, 1])
-        r = np.array(
-            [
-                [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-            ]
-        ) @ np.diag(node.get("scale", [1, 1, 1]))
-        q, _mirrored = frames.frame_rotation(r)
-        light = np.zeros((n * n, 3))
-        m = min(n * n, len(lighting))
-        light[:m] = lighting[:m]
-        out[node["name"]] = (document["meshes"][node["mesh"]]["name"], rotation.rotation_matrix(q.T, n) @ light)
+        local, _mirrored = _node_light(node, meta["order"], lighting)
+        out[node["name"]] = (document["meshes"][node["mesh"]]["name"], local)
     return out
 
 
@@ -154,19 +160,7 @@ def radiance(path):
         if meta is None:
             continue
         n = meta["order"]
-        x, y, z, w = node.get("rotation", [0, 0, 0, 1])
-        r = np.array(
-            [
-                [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-            ]
-        ) @ np.diag(node.get("scale", [1, 1, 1]))
-        q, mirrored = frames.frame_rotation(r)
-        light = np.zeros((n * n, 3))
-        m = min(n * n, len(lighting))
-        light[:m] = lighting[:m]
-        local = rotation.rotation_matrix(q.T, n) @ light
+        local, mirrored = _node_light(node, n, lighting)
         assert not mirrored
         for prim in mesh["primitives"]:
             columns = []

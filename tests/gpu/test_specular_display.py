@@ -5,20 +5,13 @@ import math
 import numpy as np
 import pytest
 from helpers.display_scenes import add_camera, bake_sphere
+from helpers.specular_scenes import principled_material
 from helpers.worlds import image_world, new_world
 
 
 def _principled(bpy, obj, base=(1.0, 1.0, 1.0), roughness=0.5, metallic=0.0):
-    mat = bpy.data.materials.new("Principled")
-    if mat.node_tree is None:  # Blender 4.x: new materials have no nodes
-        mat.use_nodes = True
-    bsdf = next(n for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
-    bsdf.inputs["Base Color"].default_value = (*base, 1.0)
-    bsdf.inputs["Roughness"].default_value = roughness
-    bsdf.inputs["Metallic"].default_value = metallic
     obj.data.materials.clear()
-    obj.data.materials.append(mat)
-    return bsdf
+    obj.data.materials.append(principled_material(bpy, "Principled", base, roughness, metallic))
 
 
 def _sphere_pixels(image, min_alpha=0.5):

@@ -2,6 +2,7 @@
 
 import numpy as np
 
+from helpers.cycles import cycles_vertex_bake
 from helpers.worlds import bundled_hdri_path, new_world, use_image
 
 ORDER = 8
@@ -71,25 +72,7 @@ def room_quads(s=2.0):
 
 def cycles_corners(bpy, scene, objects, samples=SAMPLES):
     """{name: (corners, 3)} E/pi per corner from Cycles' DIFFUSE / DIRECT vertex-colour bake."""
-    bpy.ops.object.select_all(action="DESELECT")
-    for obj in objects:
-        colours = obj.data.color_attributes
-        colours.active_color = colours.new("cycles", "FLOAT_COLOR", "CORNER")
-        obj.select_set(True)
-    bpy.context.view_layer.objects.active = objects[0]
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = samples
-    scene.cycles.use_denoising = False
-    bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT"}, target="VERTEX_COLORS", use_clear=True)
-    out = {}
-    for obj in objects:
-        colours = obj.data.color_attributes
-        values = np.empty(len(obj.data.loops) * 4, np.float32)
-        colours["cycles"].data.foreach_get("color", values)
-        out[obj.name] = values.reshape(-1, 4)[:, :3].astype(np.float64)
-        colours.remove(colours["cycles"])
-    return out
+    return cycles_vertex_bake(bpy, scene, objects, samples, domain="CORNER")
 
 
 def shade_corners(api, obj, scene):

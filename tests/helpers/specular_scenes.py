@@ -15,7 +15,8 @@ METALLIC = (0.0, 1.0)
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
-def _principled(bpy, name, base, roughness, metallic):
+def principled_material(bpy, name, base, roughness, metallic):
+    """A new material whose Principled BSDF has this base colour, roughness and metallic."""
     mat = bpy.data.materials.new(name)
     if mat.node_tree is None:  # Blender 4.x: new materials have no nodes
         mat.use_nodes = True
@@ -42,12 +43,12 @@ def spheres_scene(bpy, scene, hdri="city", size=(160, 96), segments=48):
             obj = bpy.context.active_object
             obj.name = f"r{roughness}_m{int(metallic)}"
             obj.data.shade_smooth()
-            obj.data.materials.append(_principled(bpy, obj.name, (0.8, 0.8, 0.8), roughness, metallic))
+            obj.data.materials.append(principled_material(bpy, obj.name, (0.8, 0.8, 0.8), roughness, metallic))
             spheres[obj.name] = obj
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=64, y_subdivisions=64, size=12.0)
     ground = bpy.context.active_object
     ground.name = "ground"
-    ground.data.materials.append(_principled(bpy, "ground", (0.5, 0.5, 0.5), 1.0, 0.0))
+    ground.data.materials.append(principled_material(bpy, "ground", (0.5, 0.5, 0.5), 1.0, 0.0))
     cam = add_camera(bpy, scene, location=(0.0, -4.6, 3.2), euler=(math.radians(58.0), 0.0, 0.0), size=size[0])
     scene.render.resolution_y = size[1]
     scene.view_settings.view_transform = "Standard"

@@ -372,13 +372,18 @@ class TransferComputation:
 
     def run(self, progress: Callable[[float], object] | None = None) -> TransferResult:
         """Compute everything; progress(fraction) is called after each chunk."""
-        try:
-            while self.step():
-                if progress is not None:
-                    progress(self.fraction)
-        finally:
-            self.close()
-        return self.result()
+        return run_to_end(self, progress)
+
+
+def run_to_end(computation: Any, progress: Callable[[float], object] | None = None) -> TransferResult:
+    """Step a computation (step, fraction, close, result) to its end, closing it on any exit."""
+    try:
+        while computation.step():
+            if progress is not None:
+                progress(computation.fraction)
+    finally:
+        computation.close()
+    return computation.result()
 
 
 def compute_transfer(

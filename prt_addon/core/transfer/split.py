@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..sh.directions import DirectionSet
-from .quadrature import TransferComputation
+from .quadrature import TransferComputation, run_to_end
 from .stats import TransferResult, TransferStats
 
 
@@ -160,10 +160,4 @@ class SplitComputation:
 
     def run(self, progress: Callable[[float], object] | None = None) -> TransferResult:
         """Compute everything; progress(fraction) after each chunk."""
-        try:
-            while self.step():
-                if progress is not None:
-                    progress(self.fraction)
-        finally:
-            self.close()
-        return self.result()
+        return run_to_end(self, progress)
