@@ -347,6 +347,8 @@ def same(a, b):
 def verdict():
     r = result
     bake_attrs = {k for mesh in r.get("after_bake", {}).values() for k in mesh if k != "record"}
+    # order 4: 4 attributes of direct transfer, and 4 per bounced channel when the bake bounced
+    bounced_blocks = r.get("report", {}).get("bounce_channels", 0) if r.get("report", {}).get("bounces") else 0
     long_samples = r.get("progress_samples_long_bake", [])
     drawn = {phase for phase, lights in r.get("markers_drawn", []) if lights}  # phases with markers drawn
     markers_turn = bool(drawn & {"sidebar", "display"} and drawn & {"long", "cancel"})  # before, after the turn
@@ -359,7 +361,7 @@ def verdict():
         "invoke() starts a modal bake": r.get("invoke") == ["RUNNING_MODAL"],
         "the modal bake finishes with Embree": bool(r.get("report", {}).get("ok"))
         and r.get("report", {}).get("backend") == "EMBREE"
-        and len(bake_attrs) == 4
+        and len(bake_attrs) == 4 * (1 + bounced_blocks)
         and bool(r.get("after_bake"))
         and all(mesh["record"] is not None for mesh in r["after_bake"].values()),
         "no worker thread left after the bake": r.get("threads_after_bake") == [],

@@ -50,8 +50,8 @@ class BakeEstimate:
         return self.bytes <= USABLE_SHARE * self.available
 
     def line(self):
-        """'about 3 s and 250 MB (11 GB available)': what the panel shows before a bake."""
-        return f"about {_duration(self.seconds)}, up to {_size(self.bytes)} ({_size(self.available)} available)"
+        """'about 3 s, up to 250 MB (11 GB available)': what the panel shows before a bake."""
+        return f"{_duration(self.seconds)}, up to {_size(self.bytes)} ({_size(self.available)} available)"
 
     def as_dict(self):
         return {
@@ -70,8 +70,8 @@ def _duration(seconds):
     if seconds < 1.0:
         return "under 1 s"
     if seconds < 90.0:
-        return f"{seconds:.0f} s"
-    return f"{seconds / 60.0:.0f} min"
+        return f"about {seconds:.0f} s"
+    return f"about {seconds / 60.0:.0f} min"
 
 
 def _size(n):
