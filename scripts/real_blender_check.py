@@ -1,11 +1,9 @@
-"""Run by a real Blender program with a window (scripts/real_blender_check.sh starts it):
-
-    blender --factory-startup --enable-event-simulate --python real_blender_check.py -- ZIP RESULT_JSON
-
-Installs the extension zip as a user would, checks which Embree the shared-buffer path binds to (and that it
-answers as embreex's copy does), then drives the real modal bake through Blender's event loop: a bake, one undo
-and one redo, the display with its light directions and colours (real_blender_colour.py), a long bake cancelled
-by a simulated Esc while this script's timers sample its progress. Writes a verdict per check to RESULT_JSON."""
+"""Run by a real Blender with a window (real_blender_check.sh): blender --factory-startup --enable-event-simulate
+--python real_blender_check.py -- ZIP RESULT_JSON. Installs the extension zip as a user would, checks which Embree the
+shared-buffer path binds to (and that it answers as embreex's copy does), then drives the real modal bake through
+Blender's event loop: a bake, one undo and one redo, the display with its light directions and colours
+(real_blender_colour.py), a long bake cancelled by a simulated Esc while this script's timers sample its progress.
+Writes a verdict per check to RESULT_JSON."""
 
 import ctypes
 import json
@@ -347,8 +345,8 @@ def same(a, b):
 def verdict():
     r = result
     bake_attrs = {k for mesh in r.get("after_bake", {}).values() for k in mesh if k != "record"}
-    # order 4: 4 attributes of direct transfer, and 4 per bounced channel when the bake bounced
-    bounced_blocks = r.get("report", {}).get("bounce_channels", 0) if r.get("report", {}).get("bounces") else 0
+    report = r.get("report", {})  # order 4: 4 attributes of direct transfer, 4 more per bounced channel
+    bounced_blocks = report.get("bounce_channels", 0) if report.get("bounces") else 0
     long_samples = r.get("progress_samples_long_bake", [])
     drawn = {phase for phase, lights in r.get("markers_drawn", []) if lights}  # phases with markers drawn
     markers_turn = bool(drawn & {"sidebar", "display"} and drawn & {"long", "cancel"})  # before, after the turn
