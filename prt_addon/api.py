@@ -180,7 +180,8 @@ def bake(
     aborts the bake and leaves every mesh unchanged.
     options: cull=True (skip rays where nothing can occlude), depsgraph, chunk_rays, threads
     (None, the default: Blender's own setting, Render Properties > Performance > Threads),
-    texel_density.
+    texel_density, adaptive (TEXELS: interpolate 4 x 4 blocks whose corners agree within this
+    relative tolerance, default 0.05; 0 traces every texel: docs/texels.md, "Adaptive sampling").
 
     Returns a BakeReport (seconds, rays_traced, rays_skipped and the reasons, backend,
     error_estimate, error_estimate_relative, objects, skipped). Raises ValueError (BakeError)

@@ -16,7 +16,7 @@ from ...core.sh import frames
 from ...core.sh.directions import make_directions
 from ...core.trace import raytrace
 from ...core.trace.occluders import LazyOccluder
-from ...core.transfer import bounce_hits, quadrature as transfer, split
+from ...core.transfer import adaptive, bounce_hits, quadrature as transfer
 from ...core.transfer.mesh import concatenate_parts
 from ..scene import mesh_read, storage
 from ..scene.occluders import BUILDERS
@@ -25,7 +25,7 @@ from .bounces import BounceSystem
 from .estimate import estimate, refuse_past_memory
 from .plans import NO_GEOMETRY, check_object
 from .settings import BakeError, BakeReport, BakeSettings, blender_threads, fallback_note, resolve_backend
-from .texels import bakes_texels, prepare_texels, texel_image, unwrap_ahead, within_memory
+from .texels import bakes_texels, prepare_texels, texel_computation, texel_image, unwrap_ahead, within_memory
 
 # Progress weight of one bounce pass per node, against one traced point (measured ~0.1 to 0.3).
 PASS_WORK = 0.2
@@ -153,20 +153,7 @@ class BakeJob:
 
     def _computation(self, plan):
         if plan.texels is not None:
-            samples = plan.texels.samples
-            return split.SplitComputation(
-                samples.positions,
-                samples.normals,
-                self.directions,
-                self.settings.order,
-                occluder=plan.occluder,
-                offset=plan.offset,
-                self_occludes=plan.self_occludes,
-                other_boxes=plan.boxes,
-                chunk_rays=self.settings.chunk_rays,
-                threads=self.settings.threads,
-                pool=self._pool,
-            )
+            return texel_computation(plan, self.directions, self.settings, self._pool)
         # The point's own surface moves each origin into its own faces as well as along the
         # normal, so that rays from a point in another surface's plane (a box standing on the
         # ground) do not slip under it (docs/bake.md, "Contacts"). Unshadowed: not needed.
@@ -330,6 +317,7 @@ class BakeJob:
         rep.skipped_shadows_off = stats_all.skipped_shadows_off
         rep.points = int(len(err))
         rep.texels = sum(len(p.texels.samples.texels) for p in self.plans if p.texels is not None)
+        rep.texels_interpolated = sum(getattr(p.computation, "interpolated", 0) for p in self.plans)
         rep.error_estimate = float(np.sqrt(np.mean(err**2))) if len(err) else 0.0
         rms_norm = float(np.sqrt(square_norm_sum / len(err))) if len(err) else 0.0
         rep.error_estimate_relative = rep.error_estimate / rms_norm if rms_norm > 0 else 0.0
@@ -366,6 +354,7 @@ def bake(
     uv_map=None,
     resolution=None,
     texel_density=20.0,
+    adaptive=adaptive.TOLERANCE,
 ):
     """Bake and write; returns a BakeReport. Raises BakeError when nothing can be baked."""
     if objects is not None and isinstance(objects, bpy.types.Object):
@@ -386,6 +375,7 @@ def bake(
         uv_map,
         resolution,
         texel_density,
+        adaptive,
     )
     job = BakeJob(objects, settings, depsgraph)
     return job.run(progress)

@@ -8,6 +8,7 @@ import numpy as np
 from ...core.sh.directions import KINDS
 from ...core.trace import raytrace
 from ...core.transfer import quadrature as transfer
+from ...core.transfer.adaptive import TOLERANCE as ADAPTIVE
 from ..scene.occluders import auto_backend
 
 BACKENDS = ("AUTO", "EMBREE", "BVHTREE")
@@ -42,6 +43,7 @@ class BakeSettings:
     uv_map: str | None = None  # TEXELS: the UV map to bake into (None: a lightmap UV map, found or made)
     resolution: int | None = None  # TEXELS: texels per side (None: from texel_density)
     texel_density: float = 20.0  # TEXELS: texels per metre of surface when resolution is None
+    adaptive: float = ADAPTIVE  # TEXELS: interpolate blocks whose corners agree within this (0: trace every texel)
 
     def validate(self):
         if (
@@ -101,6 +103,8 @@ class BakeSettings:
         density = self.texel_density
         if isinstance(density, bool) or not isinstance(density, (int, float, np.number)) or not density > 0:
             raise BakeError(f"texel density must be a number of texels per metre > 0, got {density!r}")
+        if not isinstance(self.adaptive, (int, float)) or not 0.0 <= self.adaptive <= 1.0:
+            raise BakeError(f"adaptive must be a tolerance from 0 (off) to 1, got {self.adaptive!r}")
         if self.uv_map is not None and not isinstance(self.uv_map, str):
             raise BakeError(f"uv_map must be the name of a UV map or None, got {self.uv_map!r}")
         self.resolution = None if res is None else int(res)
@@ -139,6 +143,7 @@ class BakeReport:
     albedo_notes: list = field(default_factory=list)  # e.g. textured colours taken as their mean
     target: str = "VERTICES"
     texels: int = 0  # covered texels of a texel bake
+    texels_interpolated: int = 0  # of those, filled from agreeing block corners (adaptive)
     texel_notes: list = field(default_factory=list)  # the UV maps made, resolutions, faces not baked
 
     @property

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from ...core.transfer import contact, lightmap, texels
+from ...core.transfer import adaptive, contact, lightmap, split, texels
 from ...core.transfer.mesh import concatenate_parts
 from ..scene import mesh_read
 from .settings import MAX_RESOLUTION, BakeError, memory_budget, texel_memory
@@ -221,6 +221,32 @@ def prepare_texels(plan, mesh_eval, positions, settings, others, build_occluder,
     res = geometry.resolution
     geometry.notes.append(f"{res} x {res} texels of UV map '{geometry.uv_name}', {len(samples.texels):,} covered")
     return geometry
+
+
+def texel_computation(plan, directions, settings, pool):
+    """The computation of a plan's texels: every texel's samples (core.transfer.split), or with
+    settings.adaptive > 0 a lattice first and then the blocks that disagree (core.transfer.adaptive)."""
+    samples = plan.texels.samples
+
+    def make(which=slice(None)):
+        return split.SplitComputation(
+            samples.positions[:, which],
+            samples.normals[:, which],
+            directions,
+            settings.order,
+            occluder=plan.occluder,
+            offset=plan.offset,
+            self_occludes=plan.self_occludes,
+            other_boxes=plan.boxes,
+            chunk_rays=settings.chunk_rays,
+            threads=settings.threads,
+            pool=pool,
+        )
+
+    if not settings.adaptive:
+        return make()
+    lattice = adaptive.AdaptivePlan(samples.texels, samples.normals, samples.resolution)
+    return adaptive.AdaptiveComputation(lattice, make, settings.order, settings.adaptive)
 
 
 def bakes_texels(plan, settings):

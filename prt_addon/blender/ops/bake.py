@@ -32,6 +32,7 @@ def settings_from(group):
         uv_map=group.uv_map or None,
         resolution=group.resolution or None,
         texel_density=group.texel_density,
+        adaptive=group.texel_adaptive,
     )
 
 

@@ -41,6 +41,7 @@ def texel_settings(layout, context, settings):
     col.prop(settings, "resolution")
     if not settings.resolution:
         col.prop(settings, "texel_density")
+    col.prop(settings, "texel_adaptive")
     meshes = sum(1 for o in context.selected_objects if o.type == "MESH")
     if settings.resolution and meshes:
         need = meshes * texel_memory(settings.resolution, settings.order)

@@ -9,7 +9,7 @@ import bpy
 
 from ...core.lights.extraction import MAX_LIGHTS
 from ..bake.presets import CYCLES_DIFFUSE_BOUNCES
-from ..bake.settings import MAX_BOUNCES, MAX_ORDER, MAX_RESOLUTION, MIN_SAMPLES
+from ..bake.settings import ADAPTIVE, MAX_BOUNCES, MAX_ORDER, MAX_RESOLUTION, MIN_SAMPLES
 from ..world.projection import MAX_ORDER as MAX_WORLD_ORDER
 
 
@@ -185,6 +185,15 @@ class PRT_PG_bake_settings(bpy.types.PropertyGroup):
         default=20.0,
         min=0.1,
         soft_max=200.0,
+    )
+    texel_adaptive: bpy.props.FloatProperty(
+        name="Adaptive",
+        description="Texels: trace a lattice of every 4th texel and interpolate the blocks whose corners agree "
+        "within this relative difference (edges, contacts and shadows are traced); 0 traces every texel",
+        default=ADAPTIVE,
+        min=0.0,
+        max=1.0,
+        step=1,
     )
     shadows: bpy.props.BoolProperty(
         name="Shadows",
