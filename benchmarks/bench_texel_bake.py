@@ -1,7 +1,8 @@
 """Texel bakes: time against raw Embree tracing the same rays, texels/s and rays/s, peak memory at 2048 x 2048, frame cost against vertex bakes.
 
 Run after the test command has made the venv:  .venv/bin/python benchmarks/bench_texel_bake.py
-(--memory-only / --no-memory). Ratios are measured side by side in one run; 2-core figures are
+(--no-memory, --no-frame, --resolutions 64 128). Ratios are measured side by side in one run, for
+every texel traced and for the adaptive default; 2-core figures are
 noisy, so each ratio is the median of --repeats pairs.
 """
 
@@ -60,22 +61,44 @@ def raw_seconds(objs, options, threads):
 
 
 def speed(res, threads, repeats):
+    """Tracing every texel (adaptive=0) and the adaptive default, each against raw Embree on its
+    own rays, and the adaptive bake against raw Embree on every texel's rays; pairs interleaved."""
     objs, options = room(res)
-    ratios, bakes, raws = [], [], []
+    full = dict(options, adaptive=0.0)
+    runs = {"full": [], "adaptive": [], "raw full": [], "raw adaptive": []}
     for _ in range(repeats):
-        raw, rays = raw_seconds(objs, options, threads)
+        raw_full, rays_full = raw_seconds(objs, full, threads)
+        seconds_full, report_full = bake_seconds(objs, full, threads)
+        raw_adaptive, rays_adaptive = raw_seconds(objs, options, threads)
         seconds, report = bake_seconds(objs, options, threads)
-        ratios.append(seconds / raw)
-        bakes.append(seconds)
-        raws.append(raw)
-    seconds = statistics.median(bakes)
+        for name, value in zip(runs, (seconds_full, seconds, raw_full, raw_adaptive)):
+            runs[name].append(value)
+    med = {name: statistics.median(values) for name, values in runs.items()}
+    ratio = lambda a, b: statistics.median(x / y for x, y in zip(runs[a], runs[b]))
+    listing = lambda a, b: ", ".join(f"{x / y:.2f}" for x, y in zip(runs[a], runs[b]))
     print(f"room, {len(objs)} objects, {res} x {res} texels each, order 4, 256 directions, {threads} threads:")
-    print(f"  texels {report.texels:,}, rays traced {report.rays_traced:,} (raw batches {rays:,})")
+    for name, rep, rays, key in (
+        ("every texel", report_full, rays_full, "full"),
+        ("adaptive", report, rays_adaptive, "adaptive"),
+    ):
+        print(
+            f"  {name}: texels {rep.texels:,} ({rep.texels_interpolated:,} interpolated), rays traced "
+            f"{rep.rays_traced:,} (raw batches {rays:,}); bake {med[key]:.3f} s: {rep.texels / med[key]:,.0f} "
+            f"texels/s, {rep.rays_traced / med[key]:,.0f} rays/s"
+        )
     print(
-        f"  bake {seconds:.3f} s: {report.texels / seconds:,.0f} texels/s, {report.rays_traced / seconds:,.0f} rays/s"
+        f"  raw Embree on every texel's rays {med['raw full']:.3f} s, on the adaptive bake's {med['raw adaptive']:.3f} s"
     )
-    print(f"  raw Embree on the same rays {statistics.median(raws):.3f} s")
-    print(f"  bake / raw Embree: median {statistics.median(ratios):.2f} (runs {', '.join(f'{r:.2f}' for r in ratios)})")
+    print(
+        f"  every texel / raw Embree (same rays): median {ratio('full', 'raw full'):.2f} ({listing('full', 'raw full')})"
+    )
+    print(
+        f"  adaptive / raw Embree (same rays): median {ratio('adaptive', 'raw adaptive'):.2f} ({listing('adaptive', 'raw adaptive')})"
+    )
+    print(
+        f"  adaptive / raw Embree on every texel's rays: median {ratio('adaptive', 'raw full'):.2f} "
+        f"({listing('adaptive', 'raw full')}); rays {report.rays_traced / report_full.rays_traced:.2f} of every texel's"
+    )
 
 
 def memory_child(res, order):
@@ -121,14 +144,18 @@ def main():
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--no-memory", action="store_true")
+    parser.add_argument("--no-frame", action="store_true")
+    parser.add_argument("--resolutions", type=int, nargs="+", default=[64, 128])
     parser.add_argument("--memory-child", nargs=2, type=int, metavar=("RES", "ORDER"))
     args = parser.parse_args()
     prt_addon.register()
     if args.memory_child:
         memory_child(*args.memory_child)
         return
-    speed(64, args.threads, args.repeats)
-    frame_cost(5)
+    for res in args.resolutions:
+        speed(res, args.threads, args.repeats)
+    if not args.no_frame:
+        frame_cost(5)
     if not args.no_memory:
         for res, order in ((1024, 8), (2048, 4), (2048, 8)):
             subprocess.run([sys.executable, __file__, "--memory-child", str(res), str(order)], check=True)

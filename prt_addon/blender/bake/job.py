@@ -217,11 +217,15 @@ class BakeJob:
     def steps(self):
         """Generator: one chunk per step, yielding (fraction done, status text)."""
         try:
-            for label, comp in self._computations():
+            named = self._computations()
+            for index, (label, comp) in enumerate(named):
+                following = self.plans[index + 1].computation if index + 1 < len(self.plans) else None
                 while True:
                     if self._cancel:
                         raise transfer.Cancelled()
                     more = comp.step()
+                    if more and following is not None and comp.fully_queued:
+                        following.start()  # (its slices queue behind the last ones: no thread waits)
                     yield self.fraction, f"{label}: {100.0 * self.fraction:.0f} %"
                     if not more:
                         break

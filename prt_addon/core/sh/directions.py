@@ -74,6 +74,7 @@ class DirectionSet:
     seed: object
     directions: np.ndarray
     _basis: dict = field(default_factory=dict, repr=False)
+    _subsets: dict = field(default_factory=dict, repr=False)  # count -> subsets (core.transfer.split)
 
     @property
     def weight(self) -> float:

@@ -23,8 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from .quadrature import run_to_end
-from .stats import TransferResult, TransferStats
+from .stats import TransferResult, TransferStats, run_to_end
 
 BLOCK = 4  # texels between lattice lines
 TOLERANCE = 0.05  # relative disagreement of the corners that still interpolates (docs/texels.md)
@@ -161,6 +160,11 @@ class AdaptiveComputation:
     @property
     def fraction(self) -> float:
         return self.done / self._count if self._count else 1.0
+
+    @property
+    def fully_queued(self) -> bool:
+        """After the lattice (the blocks to trace need its results), with the rest all queued."""
+        return self._refined and (self._current is None or self._current[1].fully_queued)
 
     @property
     def stats(self) -> TransferStats:

@@ -43,7 +43,7 @@ from ..trace.ray_rows import RAY16 as _RAY16, rays16 as _rays16, xyz as _xyz
 from ..trace.raytrace import box_can_occlude
 from .contact import inward_tangents
 from .mesh import unit_normals
-from .stats import Cancelled, TransferResult, TransferStats, error_calibration, error_groups
+from .stats import Cancelled, TransferResult, TransferStats, error_calibration, error_groups, run_to_end
 
 CHUNK_RAYS = 1 << 18
 SLICES_PER_THREAD = 4  # slices per step() and thread
@@ -162,6 +162,11 @@ class TransferComputation:
     def queued(self) -> int:
         """Points whose slices are queued or done (the first not yet queued)."""
         return max(self._next, self.done)
+
+    @property
+    def fully_queued(self) -> bool:
+        """Whether every slice is queued or done: the next computation may queue behind it."""
+        return self.queued >= self.total
 
     def cancel(self) -> None:
         self._cancel = True
@@ -373,17 +378,6 @@ class TransferComputation:
     def run(self, progress: Callable[[float], object] | None = None) -> TransferResult:
         """Compute everything; progress(fraction) is called after each chunk."""
         return run_to_end(self, progress)
-
-
-def run_to_end(computation: Any, progress: Callable[[float], object] | None = None) -> TransferResult:
-    """Step a computation (step, fraction, close, result) to its end, closing it on any exit."""
-    try:
-        while computation.step():
-            if progress is not None:
-                progress(computation.fraction)
-    finally:
-        computation.close()
-    return computation.result()
 
 
 def compute_transfer(

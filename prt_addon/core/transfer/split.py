@@ -26,14 +26,19 @@ import numpy as np
 import numpy.typing as npt
 
 from ..sh.directions import DirectionSet
-from .quadrature import TransferComputation, run_to_end
-from .stats import TransferResult, TransferStats
+from .quadrature import TransferComputation
+from .stats import TransferResult, TransferStats, run_to_end
 
 
 def direction_subsets(directions: DirectionSet, count: int) -> list[DirectionSet]:
-    """The S = count interleaved subsets of a direction set (k mod S), each a DirectionSet."""
+    """The S = count interleaved subsets of a direction set (k mod S), each a DirectionSet, made
+    once per set and count (every object of a texel bake, and each adaptive pass, shares them and
+    the SH tables they cache)."""
     count = max(1, min(int(count), directions.count))
-    subsets = []
+    cached = directions._subsets.get(count)
+    if cached is not None:
+        return cached
+    subsets = directions._subsets[count] = []
     for s in range(count):
         picked = np.ascontiguousarray(directions.directions[s::count])
         subsets.append(DirectionSet(directions.kind, len(picked), directions.seed, picked))
@@ -103,6 +108,10 @@ class SplitComputation:
     @property
     def fraction(self) -> float:
         return sum(part.fraction for part in self._parts) / self.samples
+
+    @property
+    def fully_queued(self) -> bool:
+        return self._current == len(self._parts) - 1 and self._parts[-1].fully_queued
 
     @property
     def stats(self) -> TransferStats:

@@ -1,9 +1,12 @@
-"""What a transfer computation counts (rays traced and skipped, and why), what it returns, and
-how its error estimate is grouped and calibrated (core.transfer.quadrature explains the estimate)."""
+"""What a transfer computation counts (rays traced and skipped, and why), what it returns, how
+its error estimate is grouped and calibrated (core.transfer.quadrature explains the estimate), and
+the loop that steps one to its end."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -98,3 +101,14 @@ def error_calibration(kind: str, count: int, order: int) -> float:
     if str(kind).upper() != "FIBONACCI":
         return 1.0
     return 1.0 / (1.5 * (1.0 + 3.5 * (order * order / max(int(count), 1)) ** 2))
+
+
+def run_to_end(computation: Any, progress: Callable[[float], object] | None = None) -> TransferResult:
+    """Step a computation (step, fraction, close, result) to its end, closing it on any exit."""
+    try:
+        while computation.step():
+            if progress is not None:
+                progress(computation.fraction)
+    finally:
+        computation.close()
+    return computation.result()
