@@ -29,6 +29,7 @@ BLOCK = 4  # texels between lattice lines
 TOLERANCE = 0.05  # relative disagreement of the corners that still interpolates (docs/texels.md)
 NOISE_SIGMAS = 2.0
 NORMAL_COS = 0.999  # texel normals within ~2.6 degrees of the block's first corner
+CHUNK = 1 << 14  # blocks or texels per numpy pass of decide() and interpolate()
 
 
 def lattice_lines(resolution: int, block: int) -> np.ndarray:
@@ -94,28 +95,28 @@ class AdaptivePlan:
 
     def decide(self, coeffs: np.ndarray, error: np.ndarray, tolerance: float = TOLERANCE) -> np.ndarray:
         """(blocks,) bool, True where a block is interpolated; coeffs (P, n*n), error (P,) hold
-        the lattice texels' values (other rows are not read)."""
+        the lattice texels' values (other rows are not read). In chunks of CHUNK blocks."""
         agree = self.geometry_ok.copy()
         idx = np.maximum(self.corners, 0)
-        t = np.asarray(coeffs, dtype=np.float64)[idx]  # (blocks, 4, n*n)
-        mean = t.mean(axis=1)
-        spread = np.linalg.norm(t - mean[:, None], axis=2).max(axis=1)
-        noise = np.asarray(error, dtype=np.float64)[idx].max(axis=1)
-        agree &= spread <= tolerance * np.linalg.norm(mean, axis=1) + NOISE_SIGMAS * noise
+        for a in range(0, len(idx), CHUNK):
+            rows = idx[a : a + CHUNK]
+            t = np.asarray(coeffs[rows], dtype=np.float64)  # (chunk, 4, n*n)
+            mean = t.mean(axis=1)
+            spread = np.linalg.norm(t - mean[:, None], axis=2).max(axis=1)
+            noise = np.asarray(error[rows], dtype=np.float64).max(axis=1)
+            agree[a : a + CHUNK] &= spread <= tolerance * np.linalg.norm(mean, axis=1) + NOISE_SIGMAS * noise
         return agree
 
-    def interpolate(self, which: np.ndarray, values: np.ndarray) -> np.ndarray:
-        """(len(which), C) bilinear values at texels `which` (positions) from the corners of
-        their blocks; values (P, C) hold the lattice texels' values."""
-        corners = self.corners[self.block[which]]
-        fr, fc = self.fr[which][:, None], self.fc[which][:, None]
-        v = np.asarray(values, dtype=np.float64)
-        return (
-            (1 - fr) * (1 - fc) * v[corners[:, 0]]
-            + (1 - fr) * fc * v[corners[:, 1]]
-            + fr * (1 - fc) * v[corners[:, 2]]
-            + fr * fc * v[corners[:, 3]]
-        )
+    def interpolate(self, which: np.ndarray, values: np.ndarray, out: np.ndarray) -> None:
+        """out[which] = the bilinear values at texels `which` (positions) from the corners of
+        their blocks; values (P, C) hold the lattice texels' values (out may be values). In
+        chunks of CHUNK texels (a float64 copy of a whole map would be the bake's peak)."""
+        for a in range(0, len(which), CHUNK):
+            part = which[a : a + CHUNK]
+            corners = self.corners[self.block[part]]
+            fr, fc = self.fr[part][:, None], self.fc[part][:, None]
+            v = [np.asarray(values[corners[:, k]], dtype=np.float64) for k in range(4)]
+            out[part] = (1 - fr) * ((1 - fc) * v[0] + fc * v[1]) + fr * ((1 - fc) * v[2] + fc * v[3])
 
 
 class AdaptiveComputation:
@@ -218,8 +219,8 @@ class AdaptiveComputation:
         agree = plan.decide(self.coeffs, self._error, self.tolerance)
         rest = ~plan.is_lattice
         fill = np.flatnonzero(rest & agree[plan.block])
-        self.coeffs[fill] = plan.interpolate(fill, self.coeffs)
-        self._error[fill] = plan.interpolate(fill, self._error[:, None])[:, 0]
+        plan.interpolate(fill, self.coeffs, self.coeffs)  # (fill holds no lattice texel)
+        plan.interpolate(fill, self._error[:, None], self._error[:, None])
         self.interpolated = len(fill)
         self._done_before += len(fill)
         self._open(np.flatnonzero(rest & ~agree[plan.block]))
