@@ -67,3 +67,14 @@ def test_a_bad_adaptive_tolerance_is_refused(bpy_module, empty_scene, value):
     with pytest.raises(ValueError, match="adaptive must be a tolerance"):
         api.bake([obj], target="TEXELS", uv_map="UVMap", resolution=8, adaptive=value)
     assert "prt_bake" not in obj.data
+
+
+def test_the_panel_setting_reaches_the_bake(bpy_module, empty_scene):
+    from prt_addon.blender.bake.settings import ADAPTIVE
+    from prt_addon.blender.ops.bake import settings_from
+
+    group = empty_scene.prt
+    assert settings_from(group).validate().adaptive == pytest.approx(ADAPTIVE)
+    group.texel_adaptive = 0.0
+    assert settings_from(group).validate().adaptive == 0.0
+    group.texel_adaptive = ADAPTIVE
