@@ -73,7 +73,7 @@ def test_the_panel_setting_reaches_the_bake(bpy_module, empty_scene):
     from prt_addon.blender.bake.settings import ADAPTIVE
     from prt_addon.blender.ops.bake import settings_from
 
-    group = empty_scene.prt
+    group = empty_scene.prt_bake
     assert settings_from(group).validate().adaptive == pytest.approx(ADAPTIVE)
     group.texel_adaptive = 0.0
     assert settings_from(group).validate().adaptive == 0.0
