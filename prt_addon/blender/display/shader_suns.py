@@ -147,7 +147,7 @@ def _view_lines(v, maps, cosine, blocker_taps, pcf_taps, specular=False):
             f"    float vis = view_visibility({maps}, {v}, n, {blocker_taps}, {pcf_taps});\n"
             f"    sun += suns.power[{v}].rgb * (c * vis);\n"
             "    if (spec.material.w > 0.0) {\n"
-            f"      sun_spec += suns.power[{v}].rgb * (sun_specular({v}) * vis);\n"
+            f"      sun_spec += suns.power[{v}].rgb * (sun_specular({v}) * (vis * suns.params[{v}].w));\n"
             "    }\n"
             "  }\n"
         )
@@ -210,7 +210,8 @@ def suns_ubo_bytes(lights, shadow_set, matrix_world):
     """std140 bytes of PRTSuns for one object: its normal matrix, and per view
     (core.lights.shadow_views; the compact lights' views first, as view_layout counts them) the local ->
     (texel x, texel y, depth) rows of its map, its direction, the map's world axes t and b, P / pi
-    of its light, (texel size, tan filter angle, resolution), (first sample, sample count,
+    of its light, (texel size, tan filter angle, resolution, the view's share of the light's power:
+    its highlight is weighted by it, the cosine term by its samples' weights), (first sample, sample count,
     the first texel of its tile in the atlas) and the samples (direction, weight)."""
     mw = np.asarray(matrix_world, dtype=np.float64)
     order = sorted(range(len(shadow_set.views)), key=lambda i: shadow_set.maps[i].wide)  # compact first
@@ -229,7 +230,8 @@ def suns_ubo_bytes(lights, shadow_set, matrix_world):
         data[dir_at + v, :3] = view.direction
         data[axes_at + 2 * v : axes_at + 2 * v + 2, :3] = placed.rows[:2, :3] * placed.texel  # unit t, b
         data[power_at + v, :3] = lights[view.light].power / np.pi
-        data[params_at + v, :3] = (placed.texel, np.tan(min(view.angle, 1.5)), placed.resolution)
+        share = float(np.sum(view.weights))  # the view's share of its light's power: a light's views sum to 1
+        data[params_at + v] = (placed.texel, np.tan(min(view.angle, 1.5)), placed.resolution, share)
         count = len(view.weights)
         at = MAX_SAMPLES * v if not placed.wide else first
         data[range_at + v] = (at, count, *placed.origin)
