@@ -152,7 +152,6 @@ def test_a_vertex_bake_after_a_texel_bake_removes_its_image(bpy_module, empty_sc
         ({"resolution": -4}, "resolution must be None"),
         ({"resolution": 2.5}, "resolution must be None"),
         ({"resolution": 10**6}, "above the largest lightmap"),
-        ({"bounces": 2}, "bounces are baked per vertex"),
     ],
 )
 def test_bad_texel_settings_are_refused_and_change_nothing(bpy_module, empty_scene, options, message):

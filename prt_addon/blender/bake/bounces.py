@@ -4,13 +4,15 @@ Every visible mesh instance is a part of the scene's occluder; its bake points (
 a bake's points: vertices, or corners where normals split) are the nodes its triangles' hits are
 gathered at (core.transfer.bounce). A part that is baked reuses its plan's points and computation; any
 other part gets a computation of its own, traced once with the same directions, whose transfer
-only feeds the bounces. After the direct pass the bounce passes run on the whole node set.
+only feeds the bounces. A texel-baked part's nodes are its covered texels instead: a hit on it
+reads the texel under the hit's UV point (core.transfer.texel_hits). After the direct pass the
+bounce passes run on the whole node set.
 """
 
 import numpy as np
 
 from ...core.trace import raytrace
-from ...core.transfer import bounce, bounce_hits
+from ...core.transfer import bounce, bounce_hits, texel_hits
 from ...core.transfer.mesh import concatenate_parts
 from ..scene import mesh_read
 from ..scene.parts import ray_setup
@@ -37,26 +39,34 @@ class BounceSystem:
         self.plan_offset = {}  # id(plan) -> its first node
         self.node_computations = []  # (first node, computation) of parts that are not baked
         node_triangles, albedo, orientation, extra_parts = [], [], [], []
-        offset = 0
+        remap = texel_hits.TexelRemap()
+        offset = first_triangle = 0
         for index, ((owner, world, triangles), src) in enumerate(zip(parts, sources)):
             plan = plan_of.get(owner) if owner is not None else None
             if plan is not None and id(plan) in self.plan_offset:
                 plan = None
-            points = plan.points if plan is not None else mesh_read.bake_points(src.mesh, src.matrix, src.positions)
             corners, faces = mesh_read.read_triangle_corners(src.mesh, src.positions)
             if src.kept is not None:
                 corners, faces = corners[src.kept], faces[src.kept]
-            local = _node_triangles(points, corners, mesh_read.read_corner_verts(src.mesh))
-            node_triangles.append(local.astype(np.int64) + offset)
+            mirrored = np.linalg.det(src.matrix[:3, :3]) < 0
+            if plan is not None and plan.texels is not None:
+                count = self._texel_nodes(remap, plan.texels, src.kept, mirrored, first_triangle, offset)
+                node_triangles.append(np.full((len(faces), 3), -1, np.int64))  # (the remap's)
+            else:
+                points = plan.points if plan is not None else mesh_read.bake_points(src.mesh, src.matrix, src.positions)
+                local = _node_triangles(points, corners, mesh_read.read_corner_verts(src.mesh))
+                node_triangles.append(local.astype(np.int64) + offset)
+                count = len(points.positions)
             albedo.append(triangle_albedo(src.obj, src.mesh, faces, self.notes, seen, means))
             # A mirrored part (negative determinant) has its winding, hence its geometric
             # normals, reversed in world space: flip them back so its front faces stay front.
-            orientation.append(np.full(len(faces), -1.0 if np.linalg.det(src.matrix[:3, :3]) < 0 else 1.0))
+            orientation.append(np.full(len(faces), -1.0 if mirrored else 1.0))
             if plan is not None:
                 self.plan_offset[id(plan)] = offset
             else:
                 extra_parts.append((index, offset, points, world, triangles, src))
-            offset += len(points.positions)
+            offset += count
+            first_triangle += len(triangles)
         self.n_nodes = offset
         albedo = np.concatenate(albedo) if albedo else np.zeros((0, 3))
         grey = bool(np.all(albedo == albedo[:, :1]))
@@ -71,12 +81,25 @@ class BounceSystem:
             seed=s.seed,
             orientation=np.concatenate(orientation) if orientation else None,
         )
+        if remap.parts:
+            self.sink.remap = remap
         boxes = [raytrace.bounding_box(v) for _o, v, _t in parts]
         for index, first, points, world, tris, src in extra_parts:
             self.node_computations.append((first, self._computation(job, points, world, tris, src, boxes, index)))
         self.extra_points = sum(len(c.positions) for _f, c in self.node_computations)
         self.passes = None
         self.bounced = {}  # id(plan) -> (P, C, nn) bounced transfer
+
+    @staticmethod
+    def _texel_nodes(remap, geometry, kept, mirrored, first_triangle, first_node):
+        """Add a texel-baked part's texels to `remap` (its triangles: the loop triangles of
+        geometry.uvs, those `kept`); returns its node count."""
+        uvs = geometry.uvs if kept is None else geometry.uvs[kept]
+        if mirrored:  # (the sink stores a mirrored triangle as (a, c, b): its barycentrics follow)
+            uvs = uvs[:, [0, 2, 1]]
+        samples = geometry.samples
+        remap.add(first_triangle, first_node, texel_hits.TexelNodes(uvs, samples.texels, samples.resolution))
+        return samples.count
 
     def _computation(self, job, points, world, triangles, src, boxes, index):
         s = job.settings

@@ -153,7 +153,7 @@ class BakeJob:
 
     def _computation(self, plan):
         if plan.texels is not None:
-            return texel_computation(plan, self.directions, self.settings, self._pool)
+            return texel_computation(plan, self.directions, self.settings, self._pool, hit_sink=self._sink)
         # The point's own surface moves each origin into its own faces as well as along the
         # normal, so that rays from a point in another surface's plane (a box standing on the
         # ground) do not slip under it (docs/bake.md, "Contacts"). Unshadowed: not needed.
@@ -278,7 +278,12 @@ class BakeJob:
                 bounced = np.stack(
                     [frames.to_local_frame(world[:, c], plan.matrix[:3, :3]) for c in range(world.shape[1])], axis=1
                 )
-                if plan.points.scatter is not None:
+                if plan.texels is not None:  # (res, res, C, n*n): each channel's image as the direct one's
+                    images = [
+                        texel_image(plan.texels.samples, bounced[:, c], plan.texels.seams) for c in range(len(world[0]))
+                    ]
+                    bounced = np.stack(images, axis=2)
+                elif plan.points.scatter is not None:
                     bounced = bounced[plan.points.scatter]
             result = comp.result()
             errors.append(result.error.astype(np.float64))
@@ -302,7 +307,8 @@ class BakeJob:
                 "bounces": int(s.bounces),
             }
             if plan.texels is not None:
-                items.append((plan.mesh, values, "TEXEL", record, (plan.texels.uv_name, plan.texels.created_uvs)))
+                texel_extra = (plan.texels.uv_name, plan.texels.created_uvs, bounced)
+                items.append((plan.mesh, values, "TEXEL", record, texel_extra))
             else:
                 items.append((plan.mesh, values, plan.points.domain, record, bounced))
         storage.write_bakes(items)

@@ -93,8 +93,6 @@ class BakeSettings:
             raise BakeError(f"target must be one of {TARGETS}, got {self.target!r}")
         if self.target == "VERTICES":
             return
-        if self.bounces and self.target == "TEXELS":
-            raise BakeError("bounces are baked per vertex for now: bake texels with Bounces 0, or bake vertices")
         res = self.resolution
         if res is not None and (isinstance(res, bool) or not isinstance(res, (int, np.integer)) or res < 1):
             raise BakeError(f"resolution must be None (from the texel density) or an integer >= 1, got {res!r}")

@@ -31,6 +31,7 @@ class TexelGeometry:
     samples: object  # core.transfer.texels.TexelSamples (world space)
     seams: object  # core.transfer.lightmap.SeamPairs
     notes: list
+    uvs: object = None  # (T, 3, 2) float64 UVs of the loop triangles (the texel nodes of bounces)
 
 
 def lightmap_uv_name(mesh, requested):
@@ -122,7 +123,7 @@ def unwrap_ahead(objects, settings):
     bake will need a lightmap UV map for and has none. Done before the bake reads the scene:
     the mode switches of the unwrap free the evaluated meshes read before them."""
     out = {}
-    if settings.target == "VERTICES" or (settings.target == "AUTO" and settings.bounces):
+    if settings.target == "VERTICES":
         return out
     for obj in objects:
         if getattr(obj, "type", None) != "MESH" or obj.mode == "EDIT" or len(obj.data.polygons) == 0:
@@ -183,7 +184,7 @@ def texel_geometry(plan, mesh_eval, positions, uv_map, resolution, density, unwr
     if samples.degenerate:
         notes.append(f"{samples.degenerate} faces of UV map '{uv_name}' have no UV area and are not baked")
     seams = lightmap.seam_pairs(vertices, uvs, normals=world_normals)  # (smooth edges only)
-    return TexelGeometry(uv_name, created, resolution, samples, seams, notes)
+    return TexelGeometry(uv_name, created, resolution, samples, seams, notes, uvs)
 
 
 def texel_image(samples, coeffs, seams):
@@ -223,9 +224,11 @@ def prepare_texels(plan, mesh_eval, positions, settings, others, build_occluder,
     return geometry
 
 
-def texel_computation(plan, directions, settings, pool):
+def texel_computation(plan, directions, settings, pool, hit_sink=None):
     """The computation of a plan's texels: every texel's samples (core.transfer.split), or with
-    settings.adaptive > 0 a lattice first and then the blocks that disagree (core.transfer.adaptive)."""
+    settings.adaptive > 0 a lattice first and then the blocks that disagree (core.transfer.adaptive).
+    An interreflected bake (a hit_sink) traces every texel: an interpolated texel has no hits, so
+    adaptive sampling is off with bounces."""
     samples = plan.texels.samples
 
     def make(which=slice(None)):
@@ -241,9 +244,10 @@ def texel_computation(plan, directions, settings, pool):
             chunk_rays=settings.chunk_rays,
             threads=settings.threads,
             pool=pool,
+            hit_sink=hit_sink,
         )
 
-    if not settings.adaptive:
+    if not settings.adaptive or hit_sink is not None:
         return make()
     lattice = adaptive.AdaptivePlan(samples.texels, samples.normals, samples.resolution)
     return adaptive.AdaptiveComputation(lattice, make, settings.order, settings.adaptive)
@@ -252,11 +256,9 @@ def texel_computation(plan, directions, settings, pool):
 def bakes_texels(plan, settings):
     """Whether the plan bakes texels: target TEXELS; with AUTO, a mesh too coarse for its size,
     with fewer vertices than one per 4 x 4 texels at the texel density (a single-quad wall, a
-    low-poly prop), and no bounces (bounces are baked per vertex)."""
+    low-poly prop), with or without bounces (a texel bake's texels are its bounce nodes)."""
     if settings.target != "AUTO":
         return settings.target == "TEXELS"
-    if settings.bounces:
-        return False
     corners = plan.own_vertices[plan.own_triangles].astype(np.float64)
     area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1).sum()
     return len(plan.mesh.vertices) < area * settings.texel_density**2 / 16.0

@@ -105,7 +105,7 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
             bind_textures(shader, spec_frame)
         if entry.texel_grid is not None:
             shader.uniform_int("texel_grid", entry.texel_grid)
-            shader.uniform_sampler("transfer_tx", _relit(state, entry, info.count))
+            shader.uniform_sampler("transfer_tx", _relit(state, entry, info.count, info.channels))
         elif entry.texture is not None:
             shader.uniform_int("per_row", entry.per_row)
             shader.uniform_sampler("transfer_tx", entry.texture)
@@ -125,14 +125,14 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
     return drawn
 
 
-def _relit(state, entry, count):
+def _relit(state, entry, count, channels):
     """The object's relit radiance texture, drawn again when the light or the bake changed."""
     key = (state.light_key, id(entry))
     if state.relit is None or state.relit.resolution != entry.texel_grid[0]:
         state.relit = texel_relight.Relit(entry.texel_grid[0])
         state.relit_key = None
     if state.relit_key != key:
-        texel_relight.relight(state.relit, entry.texture, entry.texel_grid, count, state.ubo)
+        texel_relight.relight(state.relit, entry.texture, entry.texel_grid, count, state.ubo, channels)
         state.relit_key = key
     return state.relit.texture
 

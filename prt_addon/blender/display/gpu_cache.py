@@ -183,7 +183,7 @@ def _texel_texture(info):
     height, width = pixels.shape[:2]
     buf = gpu.types.Buffer("FLOAT", pixels.size, np.ascontiguousarray(pixels).reshape(-1))
     tex = gpu.types.GPUTexture((width, height), format="RGBA32F", data=buf)
-    return tex, (info.resolution, texel_storage.tile_grid(info.count)[0])
+    return tex, (info.resolution, texel_storage.tile_grid(texel_storage.total_groups(info))[0])
 
 
 def _transfer_texture(transfer, count):

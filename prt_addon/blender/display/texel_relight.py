@@ -2,7 +2,9 @@
 
 A frame then reads one bilinear radiance per pixel instead of every coefficient tile's four
 texels (the per-pixel sum cost 6.8 times the vertex bake's frame on llvmpipe; docs/texels.md).
-The bilinear lookup of the clamped radiance is what `shade` gives per texel, looked up.
+The bilinear lookup of the clamped radiance is what `shade` gives per texel, looked up. With
+bounces the bounced tiles (scene.texel_storage) add against light.b, the sky plus the split
+lights' SH, before the clamp, as `shade` does.
 """
 
 import gpu
@@ -24,12 +26,12 @@ void main()
   for (int k = 0; k < %(count)d; k++) {
     vec4 t = texelFetch(transfer_tx, ivec2(k %% tiles, k / tiles) * res + p, 0);
     r += vec3(dot(t, light.c[k]), dot(t, light.c[%(count)d + k]), dot(t, light.c[%(twice)d + k]));
-  }
+%(bounce)s  }
   FragColor = vec4(max(r, vec3(0.0)), 1.0);
 }
 """
 
-_programs = {}  # coefficient groups -> (shader, quad batch)
+_programs = {}  # (coefficient groups, bounce channels) -> (shader, quad batch)
 
 
 @caches.on_clear
@@ -37,12 +39,28 @@ def clear():
     _programs.clear()
 
 
-def _program(count):
-    if count not in _programs:
+def _bounce_source(count, channels):
+    """Fragment lines adding the bounced tiles' k-th vec4s (one per channel, or one for all)."""
+    if not channels:
+        return ""
+    fetch = []
+    for c in range(3):
+        g = f"{count * (1 + (c if channels == 3 else 0))} + k"
+        fetch.append(f"texelFetch(transfer_tx, ivec2(({g}) % tiles, ({g}) / tiles) * res + p, 0)")
+    return (
+        f"    r += vec3(dot({fetch[0]}, light.b[k]), dot({fetch[1]}, light.b[{count} + k]),\n"
+        f"              dot({fetch[2]}, light.b[{2 * count} + k]));\n"
+    )
+
+
+def _program(count, channels=0):
+    key = (count, channels)
+    if key not in _programs:
         from gpu_extras.batch import batch_for_shader
 
         info = gpu.types.GPUShaderCreateInfo()
-        info.typedef_source(f"struct PRTLight {{ vec4 c[{3 * count}]; }};\n")
+        bounce_block = f" vec4 b[{3 * count}];" if channels else ""
+        info.typedef_source(f"struct PRTLight {{ vec4 c[{3 * count}];{bounce_block} }};\n")
         info.uniform_buf(0, "PRTLight", "light")
         info.push_constant("INT", "res")
         info.push_constant("INT", "tiles")
@@ -50,11 +68,12 @@ def _program(count):
         info.vertex_in(0, "VEC2", "pos")
         info.fragment_out(0, "VEC4", "FragColor")
         info.vertex_source(_VERTEX)
-        info.fragment_source(_FRAGMENT % {"count": count, "twice": 2 * count})
+        bounce = _bounce_source(count, channels)
+        info.fragment_source(_FRAGMENT % {"count": count, "twice": 2 * count, "bounce": bounce})
         shader = gpu.shader.create_from_info(info)
         quad = batch_for_shader(shader, "TRI_STRIP", {"pos": ((-1, -1), (1, -1), (-1, 1), (1, 1))})
-        _programs[count] = (shader, quad)
-    return _programs[count]
+        _programs[key] = (shader, quad)
+    return _programs[key]
 
 
 class Relit:
@@ -68,10 +87,11 @@ class Relit:
         self.framebuffer = gpu.types.GPUFrameBuffer(color_slots=(self.texture,))
 
 
-def relight(relit, transfer, grid, count, light_ubo):
+def relight(relit, transfer, grid, count, light_ubo, channels=0):
     """Draw max(sum_i L_i t_i, 0) of every texel of `transfer` (the bake's tiles; grid: (res,
-    tiles per row)) with the light of `light_ubo` (shader.light_ubo_bytes) into relit.texture."""
-    shader, quad = _program(count)
+    tiles per row)) with the light of `light_ubo` (shader.light_ubo_bytes) into relit.texture;
+    channels: the bounce channels of the tiles (0: direct only)."""
+    shader, quad = _program(count, channels)
     viewport = gpu.state.viewport_get()
     depth_test = gpu.state.depth_test_get()
     try:

@@ -135,7 +135,8 @@ def shade(obj, scene=None):
         raise ValueError("the scene has no PRT lighting (project the world first)")
     lights = world_lights(scene)
     if info.domain == "TEXEL":  # (res, res, 3) per texel, laid out as Image.pixels
-        radiance = texel_shading.sky_radiance(info, light)
+        bounce_light = light + bounce_light_extra(obj, lights, info.order) if info.channels else None
+        radiance = texel_shading.sky_radiance(info, light, bounce_light)
         return radiance + texel_shading.light_radiance(obj, depsgraph, lights, info) if lights else radiance
     transfer = storage.read_transfer(mesh, info, padded=True).astype(np.float64)
     n2 = info.order * info.order

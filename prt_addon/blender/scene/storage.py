@@ -26,7 +26,8 @@ PREFIX = "prt_t"
 RECORD = "prt_bake"
 
 
-FORMAT_VERSION = 3  # 2: interreflected bakes (bounce attributes); 3: texel bakes. Others are still written as 1
+# 2: bounce attributes; 3: texel bakes; 4: texel bakes' bounce tiles (texel_storage.record_fields).
+FORMAT_VERSION, ATTRIBUTE_BOUNCE_VERSION = 4, 3  # (bakes with bounce attributes: 3, others: 1)
 
 
 _ATTR_RE = re.compile(r"^prt_t\d{2,}$")  # prt_t00 .. prt_t99, then prt_t100 .. (bounced bakes)
@@ -117,16 +118,18 @@ def restore(mesh, snap):
     mesh.update()
 
 
-def write_texels(mesh, image, record, uv_name, created_uvs, staged):
+def write_texels(mesh, image, record, uv_name, created_uvs, staged, bounce=None):
     """Write a texel bake's (res, res, n*n) coefficients as a staged image (committed by
-    write_bakes), the UV map it made (`created_uvs`, (corners, 2), or None) and the record."""
+    write_bakes), the UV map it made (`created_uvs`, (corners, 2), or None) and the record;
+    bounce: None or the (res, res, C, n*n) bounced transfer, its channels as further tiles."""
     for name in transfer_attribute_names(mesh):
         _remove(mesh, name)
     uv_name = texel_storage.write_uv_map(mesh, uv_name, created_uvs)
-    staged.append((mesh, texel_storage.stage_image(texel_storage.image_name(mesh), image)))
-    fields = texel_storage.record_fields(mesh, image.shape[0], uv_name)
     count = attribute_count(int(record["order"]))
-    mesh[RECORD] = dict(record, count=count, domain="TEXEL", bounce_channels=0, version=FORMAT_VERSION, **fields)
+    packed = texel_storage.pack_parts(image, bounce, count)
+    staged.append((mesh, texel_storage.stage_image(texel_storage.image_name(mesh), packed)))
+    fields = texel_storage.record_fields(mesh, image.shape[0], uv_name, 0 if bounce is None else bounce.shape[2])
+    mesh[RECORD] = dict(record, count=count, domain="TEXEL", **fields)
     mesh.update()
 
 
@@ -157,7 +160,7 @@ def write_transfer(mesh, values, domain, record, bounce=None):
         if int(name[len(PREFIX) :]) >= count:
             _remove(mesh, name)
     channels = len(parts) - 1
-    version = FORMAT_VERSION if channels else 1
+    version = ATTRIBUTE_BOUNCE_VERSION if channels else 1
     mesh[RECORD] = dict(record, count=per_part, domain=domain, bounce_channels=channels, version=version)
     _set_color_names(mesh, active, default)
     mesh.update()
@@ -165,18 +168,19 @@ def write_transfer(mesh, values, domain, record, bounce=None):
 
 def write_bakes(items):
     """items: [(mesh, values, domain, record[, bounce])], for a TEXEL domain [(mesh, image,
-    "TEXEL", record, (uv name, created UVs or None))]. All are written, or none (state restored:
-    attributes, records, the UV maps made; the previous images are replaced only at the end)."""
+    "TEXEL", record, (uv name, created UVs or None[, bounced (res, res, C, n*n) or None]))].
+    All are written, or none (state restored: attributes, records, the UV maps made; the
+    previous images are replaced only at the end)."""
     snapshots = [(item[0], snapshot(item[0])) for item in items]
     old_images = {item[0].name: _record_image(snap) for item, (_m, snap) in zip(items, snapshots)}
     staged, made_uvs = [], []
     try:
         for mesh, values, domain, record, extra in (tuple(item) + (None,) * (5 - len(item)) for item in items):
             if domain == "TEXEL":
-                uv_name, created = extra
+                uv_name, created, bounce = tuple(extra) + (None,) * (3 - len(extra))
                 if created is not None and uv_name not in mesh.uv_layers:
                     made_uvs.append((mesh, uv_name))
-                write_texels(mesh, values, record, uv_name, created, staged)
+                write_texels(mesh, values, record, uv_name, created, staged, bounce)
             else:
                 write_transfer(mesh, values, domain, record, extra)
     except BaseException:
@@ -242,7 +246,7 @@ def read_bake_record(mesh):
     if order < 1 or count != attribute_count(order) or domain not in DOMAINS or channels not in (0, 1, 3):
         return None, "the bake record is inconsistent"
     if domain == "TEXEL":
-        return _read_texel_record(record, order, count)
+        return _read_texel_record(record, order, count, channels)
     for k in range(count * (1 + channels)):
         attr = mesh.attributes.get(attribute_name(k))
         if attr is None or attr.domain != domain or attr.data_type != "FLOAT_COLOR":
@@ -253,15 +257,15 @@ def read_bake_record(mesh):
 DOMAINS = ("POINT", "CORNER", "TEXEL")
 
 
-def _read_texel_record(record, order, count):
+def _read_texel_record(record, order, count, channels):
     try:
         res, name, uv_map = int(record["resolution"]), str(record["image"]), str(record["uv_map"])
     except (KeyError, TypeError, ValueError):
         return None, "the bake record is incomplete"
-    image = texel_storage.find_image(name, res, count)
+    image = texel_storage.find_image(name, res, count * (1 + channels))
     if image is None:
         return None, f"its transfer image '{name}' is missing or was resized"
-    return BakeRecord(order, count, "TEXEL", record, 0, res, image, uv_map), ""
+    return BakeRecord(order, count, "TEXEL", record, channels, res, image, uv_map), ""
 
 
 def read_transfer(mesh, bake=None, padded=False):

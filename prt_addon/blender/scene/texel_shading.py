@@ -20,12 +20,21 @@ def texel_samples(obj_eval, bake):
     return texels.texel_samples(corner_uvs[corners].astype(np.float64), world, normals, bake.resolution, inset=inset)
 
 
-def sky_radiance(bake, light):
-    """(res, res, 3) max(sum_i L_i t_i, 0) per texel for a local-frame light (n*n, 3)."""
+def sky_radiance(bake, light, bounce_light=None):
+    """(res, res, 3) max(sum_i L_i t_i, 0) per texel for a local-frame light (n*n, 3); with
+    bounces t = direct + bounced, the bounced part lit by `bounce_light` (default: light), as
+    lighting.shade does for vertex bakes."""
     n2 = bake.order * bake.order
     transfer = texel_storage.read_texel_transfer(bake).reshape(-1, n2).astype(np.float64)
     res = bake.resolution
-    return np.maximum(transfer @ light[:n2], 0.0).reshape(res, res, 3)
+    radiance = transfer @ light[:n2]
+    bounced = texel_storage.read_texel_bounce(bake)
+    if bounced is not None:
+        full = np.asarray(light if bounce_light is None else bounce_light, dtype=np.float64)[:n2]
+        bounced = bounced.reshape(res * res, bake.channels, n2)
+        for c in range(3):  # one bounced vector per channel, or one for all (grey surfaces)
+            radiance[:, c] += bounced[:, min(c, bake.channels - 1)].astype(np.float64) @ full[:, c]
+    return np.maximum(radiance, 0.0).reshape(res, res, 3)
 
 
 def light_radiance(obj, depsgraph, lights, bake, rays_per_light=RAYS_PER_LIGHT):

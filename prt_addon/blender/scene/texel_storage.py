@@ -2,7 +2,9 @@
 
 A texel bake of order n has n^2 coefficients per texel, four to an RGBA texel: G = ceil(n^2 / 4)
 tiles of res x res, laid out in a grid of `tiles_x` columns (tile g at column g % tiles_x, row
-g // tiles_x) so the image stays within the GPU's texture size. Row 0 of every tile is v = 0, as
+g // tiles_x) so the image stays within the GPU's texture size. An interreflected bake with C
+bounce channels (1 or 3) has (1 + C) G tiles: the direct transfer's G, then each channel's
+bounced transfer as G more (tile c G + g). Row 0 of every tile is v = 0, as
 in Image.pixels. The images are Non-Color float images (is_data: the values are kept exactly,
 negative ones too), packed (saved in the .blend as OpenEXR) with a fake user.
 """
@@ -52,6 +54,21 @@ def from_tiles(pixels, res, groups):
     return out
 
 
+def pack_parts(image, bounce, groups):
+    """(res, res, 4 G (1 + C)) coefficients of the direct (res, res, n*n) image and the bounced
+    (res, res, C, n*n) one (or None), each part padded to 4 G channels (the module docstring)."""
+    if bounce is None:
+        return np.asarray(image, np.float32)
+    res, channels = image.shape[0], bounce.shape[2]
+    out = np.zeros((res, res, 4 * groups * (1 + channels)), dtype=np.float32)
+    n2 = image.shape[2]
+    out[..., :n2] = image
+    for c in range(channels):
+        first = 4 * groups * (1 + c)
+        out[..., first : first + n2] = bounce[:, :, c]
+    return out
+
+
 def write_uv_map(mesh, uv_name, created_uvs):
     """Add the UV map a bake made (`created_uvs`, (corners, 2)) as `uv_name`; returns its name."""
     if created_uvs is None:
@@ -63,9 +80,13 @@ def write_uv_map(mesh, uv_name, created_uvs):
     return layer.name
 
 
-def record_fields(mesh, res, uv_name):
-    """The bake record's texel fields: resolution, UV map and its fingerprint, the image's name."""
+def record_fields(mesh, res, uv_name, channels=0):
+    """The bake record's texel fields: resolution, UV map and its fingerprint, the image's name,
+    the bounce channels and the format version (3, or 4 with bounce tiles: older readers refuse
+    what they would misread, and read the rest)."""
     return {
+        "bounce_channels": int(channels),
+        "version": 4 if channels else 3,
         "resolution": res,
         "uv_map": uv_name,
         "uv_fingerprint": uv_fingerprint(mesh, uv_name),
@@ -134,10 +155,33 @@ def read_coefficients(image, res, groups):
     return from_tiles(read_pixels(image), res, groups)
 
 
+def total_groups(bake):
+    """The tiles of a texel bake's image: count of the direct transfer and of each bounce channel."""
+    return bake.count * (1 + bake.channels)
+
+
+def _read_part(bake, part, padded):
+    tiles_x, _ = tile_grid(total_groups(bake))
+    pixels = read_pixels(bake.image)
+    res, out = bake.resolution, []
+    for g in range(part * bake.count, (part + 1) * bake.count):
+        row, col = divmod(g, tiles_x)
+        out.append(pixels[row * res : (row + 1) * res, col * res : (col + 1) * res])
+    values = np.concatenate(out, axis=2)
+    return np.ascontiguousarray(values if padded else values[..., : bake.order * bake.order])
+
+
 def read_texel_transfer(bake, padded=False):
     """(res, res, n*n) float32 coefficients of a texel bake (4 * count with padded)."""
-    values = read_coefficients(bake.image, bake.resolution, bake.count)
-    return values if padded else np.ascontiguousarray(values[..., : bake.order * bake.order])
+    return _read_part(bake, 0, padded)
+
+
+def read_texel_bounce(bake, padded=False):
+    """(res, res, C, n*n) float32 bounced transfer of a texel bake (C = 1 or 3), or None
+    without bounces."""
+    if not bake.channels:
+        return None
+    return np.stack([_read_part(bake, 1 + c, padded) for c in range(bake.channels)], axis=2)
 
 
 def stale_uv_map(mesh, bake):

@@ -86,8 +86,8 @@ class VIEW3D_PT_prt_bake(PRTSubPanel, bpy.types.Panel):
         bounce_row = layout.column(align=True)
         bounce_row.enabled = bounces_apply(settings)
         bounce_row.prop(settings, "bounces")
-        if settings.target == "TEXELS" and settings.bounces:
-            bounce_row.label(text="Texels: direct light only for now")
+        if settings.target != "VERTICES" and settings.bounces and settings.adaptive:
+            bounce_row.label(text="Texels: every texel traced (no adaptive) with bounces")
         layout.prop(settings, "target")
         if settings.target != "VERTICES":
             texel_settings(layout, context, settings)

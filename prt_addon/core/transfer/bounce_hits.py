@@ -77,6 +77,9 @@ class HitTransport:
         self.scale = 4.0 / float(n_dirs)
         self._weights = (self.albedo * np.float32(self.scale)).astype(np.float32)  # per triangle
         self.seed = int(seed)
+        # None, or a callable (prims, u det, v det, det) -> None | (which, nodes) giving some hits
+        # their nodes by another rule (core.transfer.texel_hits: the texels of texel-baked meshes).
+        self.remap = None
 
     def __call__(
         self,
@@ -93,6 +96,7 @@ class HitTransport:
         prims = np.asarray(prims)
         rows = np.asarray(rows)
         ud, vd, det = hit_barycentrics(np.take(self.corners, prims, axis=0), origins, dirs)
+        remapped = None if self.remap is None else self.remap(prims, ud, vd, det)  # (before ud, vd change)
         xd = _hash_unit(rows, np.asarray(kdir), self.seed)
         # Corner 1 where xi < u, 2 where u <= xi < u + v, else 0; compared times det (> 0 on the
         # front faces, the only hits kept), which saves the division.
@@ -107,7 +111,10 @@ class HitTransport:
         index -= first
         nodes = self._corner_nodes[index]
         keep = det > 0.0  # det = -w . ((b - a) x (c - a)): the ray meets a front face
-        if not self._all_nodes:
+        if remapped is not None:
+            nodes[remapped[0]] = remapped[1]
+            keep &= nodes >= 0
+        elif not self._all_nodes:
             keep &= nodes >= 0
         weights = np.take(self._weights, prims[keep], axis=0)
         weights *= np.asarray(cosines)[keep].astype(np.float32)[:, None]

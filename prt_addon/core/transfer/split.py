@@ -13,6 +13,10 @@ directions D_s (so the horizon and the projection run over traced directions onl
 the other on the same threads, all adding into one float32 array (`accumulate`): the samples'
 own coefficients are never stored. The error estimate is the root of the sum of the subsets'
 squared estimates over S^2.
+
+Interreflection: with a hit_sink every subset gives its blocked rays to it, the element's rows
+for all S; a sink weighting each hit 4 / N (N the full set's directions, core.transfer.bounce_hits)
+then gives each sample's hits the weight 1 / S of the mean above, as its share of the directions.
 """
 
 from __future__ import annotations
@@ -63,8 +67,6 @@ class SplitComputation:
         normals = np.asarray(normals, dtype=np.float64)
         if positions.ndim != 3 or positions.shape != normals.shape or positions.shape[2] != 3:
             raise ValueError(f"positions and normals must be (S, P, 3) arrays, got {positions.shape}, {normals.shape}")
-        if options.get("hit_sink") is not None:
-            raise ValueError("a split computation keeps no hits (bounces are baked at points)")
         self.samples = min(len(positions), directions.count)
         count = positions.shape[1]
         self.order = order
@@ -95,7 +97,18 @@ class SplitComputation:
         self._current = 0
         self._started: float | None = None
         self._seconds = 0.0
-        self.hits: list = []
+
+    @property
+    def hits(self) -> list:
+        """The hit sink's entries of every subset (rows: the elements; core.transfer.bounce)."""
+        return [entry for part in self._parts for entry in part.hits]
+
+    @hits.setter
+    def hits(self, value: list) -> None:
+        if value:
+            raise ValueError("a split computation's hits can only be cleared")
+        for part in self._parts:
+            part.hits = []
 
     @property
     def total(self) -> int:
