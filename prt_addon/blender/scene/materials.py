@@ -12,7 +12,7 @@ def display_settings(scene):
     return settings.albedo_source, settings.albedo_attribute
 
 
-def _albedo_attribute(mesh, name):
+def colour_attribute(mesh, name):
     if name:
         attr = mesh.color_attributes.get(name)
         return attr
@@ -35,7 +35,7 @@ def element_albedo(mesh, domain, mode, attr_name):
     ones = np.ones((n, 4), dtype=np.float32)
     if mode != "ATTRIBUTE":
         return ones
-    attr = _albedo_attribute(mesh, attr_name)
+    attr = colour_attribute(mesh, attr_name)
     if attr is None:
         return ones
     values = np.empty(element_count(mesh, attr.domain) * 4, dtype=np.float32)
