@@ -72,3 +72,65 @@ def image_material(bpy, name, image, uv_map=None, multiply=None, shader="ShaderN
         colour = mix.outputs[2]
     tree.links.new(colour, socket)
     return mat
+
+
+def box_uvs(mesh):
+    """Set the first UV map to a box mapping: each corner's face, by its normal's main axis, shows
+    the whole 0..1 square over the box's unit side (the other two coordinates + 0.5)."""
+    n_faces = len(mesh.polygons)
+    normals = np.empty(3 * n_faces, dtype=np.float32)
+    mesh.polygons.foreach_get("normal", normals)
+    starts = np.empty(n_faces, dtype=np.int32)
+    mesh.polygons.foreach_get("loop_start", starts)
+    sizes = np.diff(starts, append=np.int32(len(mesh.loops)))
+    axis = np.repeat(np.argmax(np.abs(normals.reshape(-1, 3)), axis=1), sizes)
+    verts = np.empty(len(mesh.loops), dtype=np.int32)
+    mesh.loops.foreach_get("vertex_index", verts)
+    co = np.empty(3 * len(mesh.vertices), dtype=np.float32)
+    mesh.vertices.foreach_get("co", co)
+    p = co.reshape(-1, 3)[verts]
+    pairs = np.array([[1, 2], [0, 2], [0, 1]])[axis]
+    uv = np.take_along_axis(p, pairs, axis=1) + 0.5
+    if len(mesh.uv_layers) == 0:
+        mesh.uv_layers.new(name="UVMap")
+    mesh.uv_layers[0].data.foreach_set("uv", uv.astype(np.float32).ravel())
+
+
+def textured_box_scene(bpy, scene, folder, hdri="city", size=(160, 120)):
+    """A unit box (subdivided, flat, box-mapped 4 x 4 checker of CHECKER_COLOURS on each side) on an
+    8 x 8 grey ground under a bundled HDRI, the camera looking down at two of its sides and its top;
+    -> (box, ground)."""
+    import bmesh
+    import mathutils
+
+    from helpers.display_scenes import add_camera
+    from helpers.specular_scenes import principled_material
+    from helpers.worlds import bundled_hdri_path, new_world, use_image
+
+    world = new_world(bpy, scene)
+    use_image(world, bpy.data.images.load(bundled_hdri_path(hdri), check_existing=True))
+    mesh = bpy.data.meshes.new("box")
+    bm = bmesh.new()
+    bmesh.ops.create_cube(bm, size=1.0)
+    bmesh.ops.subdivide_edges(bm, edges=bm.edges[:], cuts=7, use_grid_fill=True)
+    bm.to_mesh(mesh)
+    bm.free()
+    box_uvs(mesh)
+    box = bpy.data.objects.new("box", mesh)
+    scene.collection.objects.link(box)
+    box.location = (0.0, 0.0, 0.5)
+    image = bpy.data.images.load(checker_png(folder))
+    mesh.materials.append(image_material(bpy, "checker", image))
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=48, y_subdivisions=48, size=8.0)
+    ground = bpy.context.active_object
+    ground.name = "ground"
+    ground.data.materials.append(principled_material(bpy, "ground", (0.5, 0.5, 0.5), 1.0, 0.0))
+    eye = mathutils.Vector((2.4, -3.2, 2.6))
+    rotation = (mathutils.Vector((0.0, 0.0, 0.45)) - eye).to_track_quat("-Z", "Y").to_euler()
+    add_camera(bpy, scene, location=tuple(eye), euler=tuple(rotation), size=size[0])
+    scene.render.resolution_y = size[1]
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.view_settings.exposure = 0.0
+    bpy.context.view_layer.update()
+    return box, ground
