@@ -58,3 +58,54 @@ def test_image_halves_drawn_per_pixel(bpy_module, empty_scene, gpu_ready, tmp_pa
     mixed = np.array([0.5 * (1.0 - 0.5625), 0.0, 0.8 * 0.5625]) * shade
     assert np.allclose(bottom[:, 32], mixed, rtol=0.02, atol=1e-4), bottom[:, 32].mean(axis=0)
     assert np.allclose(top[:, 2:62], np.array([0.0, 0.7, 0.0]) * shade, rtol=0.01, atol=1e-4)
+
+
+def _lit_plane(bpy, scene, material):
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    obj = bpy.context.active_object
+    obj.data.materials.append(material)
+    write_bake(obj, clamped_cosine_rows(np.tile([0.0, 0.0, 1.0], (4, 1)), 3), 3)
+    light = np.zeros((9, 3))
+    light[0] = SKY * math.sqrt(4.0 * math.pi)
+    set_light(scene, light)
+    add_camera(bpy, scene, location=(0.0, 0.0, 4.0), euler=(0.0, 0.0, 0.0), size=16)
+    scene.camera.data.type = "ORTHO"
+    scene.camera.data.ortho_scale = 2.0
+    bpy.context.view_layer.update()
+    return obj
+
+
+@pytest.mark.parametrize("case", ["missing", "udim", "no_uv"])
+def test_fallbacks_draw_the_viewport_colour(bpy_module, empty_scene, gpu_ready, tmp_path, case):
+    from prt_addon.blender.display import offscreen
+    from prt_addon.blender.display.albedo_texture import notes
+
+    bpy = bpy_module
+    if case == "missing":
+        image = bpy.data.images.new("gone", 4, 4)
+        image.source = "FILE"
+        image.filepath = str(tmp_path / "gone.png")
+        image.reload()
+    else:
+        image = bpy.data.images.new("img", 4, 4, tiled=case == "udim")
+    material = albedo_scenes.image_material(bpy, "mat", image)
+    material.diffuse_color = (0.2, 0.4, 0.6, 1.0)
+    obj = _lit_plane(bpy, empty_scene, material)
+    if case == "no_uv":
+        obj.data.uv_layers.remove(obj.data.uv_layers[0])
+    drawn = offscreen.render_view(empty_scene)[2:14, 2:14, :3]
+    assert np.allclose(drawn, np.array([0.2, 0.4, 0.6]) * SKY, rtol=0.02)
+    assert len(notes(obj)) == 1 and "viewport colour is used" in notes(obj)[0]
+
+
+def test_values_outside_0_1_drawn_clamped_and_told(bpy_module, empty_scene, gpu_ready):
+    from prt_addon.blender.display import offscreen
+    from prt_addon.blender.display.albedo_texture import notes
+
+    image = bpy_module.data.images.new("hdr", 1, 1, float_buffer=True)
+    image.pixels.foreach_set(np.array([3.0, -1.0, 0.5, 1.0], dtype=np.float32))
+    obj = _lit_plane(bpy_module, empty_scene, albedo_scenes.image_material(bpy_module, "mat", image))
+    assert notes(obj) == []  # (not read yet)
+    drawn = offscreen.render_view(empty_scene)[2:14, 2:14, :3]
+    assert np.allclose(drawn, np.array([1.0, 0.0, 0.5]) * SKY, rtol=0.02, atol=1e-5)
+    assert len(notes(obj)) == 1 and "clamped" in notes(obj)[0]

@@ -75,7 +75,7 @@ def albedo_source(material):
     shader = output.inputs["Surface"].links[0].from_node
     socket_name = DIFFUSE_INPUTS.get(shader.bl_idname)
     if socket_name is None:
-        return AlbedoSource("CONSTANT", viewport, note=f"'{material.name}': not a diffuse shader")
+        return _fallback(material, f"'{material.name}': not a diffuse shader")
     socket = shader.inputs[socket_name]
     if not socket.is_linked:
         return AlbedoSource("CONSTANT", _constant(socket))
@@ -84,7 +84,7 @@ def albedo_source(material):
         return AlbedoSource("CONSTANT", viewport, note=note + "; its viewport colour is used")
     image = source.image
     if image is not None and image.source == "TILED":
-        return AlbedoSource("CONSTANT", viewport, note=f"'{material.name}': UDIM tiles are not read")
+        return _fallback(material, f"'{material.name}': UDIM tiles are not read")
     return source
 
 
