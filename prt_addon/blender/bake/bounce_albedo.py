@@ -3,7 +3,9 @@
 The rule is the display's Material albedo (scene/materials.py) for diffuse shaders: the
 Principled BSDF's Base Color or the Diffuse BSDF's Color; no material: 0.8 grey (Blender's
 default surface); no node tree: the material's viewport colour. A colour that comes from an
-Image Texture node is the image's mean colour (linear); from any other node, the viewport colour.
+Image Texture node on a UV map the mesh has (the display's rule, scene/albedo_source.py) is the
+image's mean over each triangle's UV triangle (linear, times the source's colour); other images
+their mean colour; any other node, the viewport colour.
 A surface whose shader is not diffuse (Glossy, Glass, ...) reflects with its viewport colour, and
 an Emission shader alone reflects nothing (emission is not light for the bake). The report says
 which materials were read these ways. Values above 1 (an energy gain) are clamped to 1, with a
@@ -12,7 +14,9 @@ warning.
 
 import numpy as np
 
+from ...core.transfer import uv_means
 from ..scene import mesh_read
+from ..scene.albedo_source import image_pixels, mesh_source
 from ..scene.materials import active_output
 
 DEFAULT_GREY = 0.8
@@ -93,14 +97,49 @@ def slot_colours(obj, notes, seen, means):
     return np.asarray(colours, dtype=np.float64)
 
 
-def triangle_albedo(obj, mesh, faces, notes, seen, means):
-    """(T, 3) albedo of the loop triangles whose faces are `faces`, clamped to [0, 1]."""
+def _say(note, notes, seen):
+    if note and note not in seen:
+        seen.add(note)
+        notes.append(note)
+
+
+def _image_triangles(src, mesh, corners, here, means):
+    """(here.sum(), 3) the mean of src's image over each of those triangles' UV triangles, times its
+    colour; None when the image has no pixels."""
+    key = ("pixels", src.image.as_pointer())
+    if key not in means:
+        means[key] = image_pixels(src.image)
+    rgb, note = means[key]
+    if rgb is None:
+        return None, note
+    uv = mesh_read.read_corner_uvs(mesh, src.uv_map)[corners[here]]
+    return uv_means.triangle_means(rgb, uv) * np.asarray(src.colour), note
+
+
+def triangle_albedo(obj, mesh, faces, notes, seen, means, corners=None):
+    """(T, 3) albedo of the loop triangles whose faces are `faces` (corners: their (T, 3) corner
+    indices), clamped to [0, 1]. A slot whose colour is an image on a UV map the mesh has
+    (albedo_source.mesh_source) takes the image's mean over each triangle's UV triangle."""
     colours = slot_colours(obj, notes, seen, means)
     if colours.max() > 1.0 or colours.min() < 0.0:
-        note = f"'{obj.name}': a material colour outside 0 to 1 was clamped (an albedo above 1 would add energy)"
-        if note not in seen:
-            seen.add(note)
-            notes.append(note)
+        _say(
+            f"'{obj.name}': a material colour outside 0 to 1 was clamped (an albedo above 1 would add energy)",
+            notes,
+            seen,
+        )
     colours = np.clip(colours, 0.0, 1.0)
-    slots = np.clip(mesh_read.read_face_materials(mesh), 0, len(colours) - 1)
-    return colours[slots[faces]]
+    slots = np.clip(mesh_read.read_face_materials(mesh), 0, len(colours) - 1)[faces]
+    albedo = colours[slots]
+    if corners is None:
+        return albedo
+    for i, slot in enumerate(obj.material_slots[: len(colours)]):
+        here = slots == i
+        src = mesh_source(slot.material, mesh) if slot.material is not None and here.any() else None
+        if src is None or src.kind != "IMAGE":
+            continue
+        values, note = _image_triangles(src, mesh, corners, here, means)
+        if values is not None:
+            albedo[here] = np.clip(values, 0.0, 1.0)
+            note = f"'{slot.material.name}': bounced light uses its image '{src.image.name}' per triangle"
+        _say(note, notes, seen)
+    return albedo
