@@ -109,3 +109,32 @@ def test_values_outside_0_1_drawn_clamped_and_told(bpy_module, empty_scene, gpu_
     drawn = offscreen.render_view(empty_scene)[2:14, 2:14, :3]
     assert np.allclose(drawn, np.array([1.0, 0.0, 0.5]) * SKY, rtol=0.02, atol=1e-5)
     assert len(notes(obj)) == 1 and "clamped" in notes(obj)[0]
+
+
+def test_colour_attribute_slot_beside_an_image_slot(bpy_module, empty_scene, gpu_ready, tmp_path):
+    """A Color Attribute node on one slot's Base Color colours only that slot's faces (linear in x
+    here, so Gouraud draws it exactly); the image slot beside it keeps its image."""
+    from prt_addon.blender.display import offscreen
+
+    bpy = bpy_module
+    scene = empty_scene
+    obj = _grid(bpy, scene, tmp_path, 3, "POINT", None)
+    mesh = obj.data
+    co = np.empty(3 * len(mesh.vertices), dtype=np.float32)
+    mesh.vertices.foreach_get("co", co)
+    x = co.reshape(-1, 3)[:, 0]
+    mesh.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
+    colours = np.c_[(x + 1.0) / 2.0, np.full_like(x, 0.5), np.full_like(x, 0.25), np.ones_like(x)]
+    mesh.attributes["Col"].data.foreach_set("color", colours.astype(np.float32).ravel())
+    green = mesh.materials[1]
+    tree = green.node_tree
+    node = tree.nodes.new("ShaderNodeVertexColor")
+    node.layer_name = "Col"
+    tree.links.new(node.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    image = offscreen.render_view(scene)[..., :3]
+    top = image[2:28, 2:62]
+    u = (np.arange(2, 62) + 0.5) / 64.0  # x = 2u - 1 at the pixel centres: r = u
+    expected = np.stack([u, np.full_like(u, 0.5), np.full_like(u, 0.25)], axis=1) * SKY
+    assert np.allclose(top, expected[None], rtol=0.01, atol=1e-4), top.mean(axis=0)[::10]
+    left = image[36:62, 6:26]
+    assert np.allclose(left, np.array([0.5, 0.0, 0.0]) * SKY, rtol=0.02, atol=1e-4)
