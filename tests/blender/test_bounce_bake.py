@@ -167,13 +167,24 @@ def test_textured_and_over_bright_albedo(bpy_module, empty_scene):
     bsdf = red.node_tree.nodes["Diffuse BSDF"]
     red.node_tree.links.new(texture.outputs["Color"], bsdf.inputs["Color"])
     report = api.bake(objs, order=2, samples=64, bounces=1)
-    assert any("its image 'tex' per triangle" in note for note in report.albedo_notes)
+    assert any("'tex': bounced light uses the image per triangle" in note for note in report.albedo_notes)
+    assert not any("mean colour" in note for note in report.albedo_notes)
     textured = storage.read_bounce(objs[0].data).copy()
     red.node_tree.links.remove(bsdf.inputs["Color"].links[0])
     bsdf.inputs["Color"].default_value = (0.8, 0.1, 0.1, 1.0)
     api.bake(objs, order=2, samples=64, bounces=1)
     constant = storage.read_bounce(objs[0].data)
     np.testing.assert_allclose(textured, constant, rtol=1e-4, atol=1e-7)
+    # The same red from a colour attribute on the wall (its corners' mean per triangle).
+    wall.color_attributes.new("Col", "FLOAT_COLOR", "CORNER")
+    wall.attributes["Col"].data.foreach_set("color", np.tile([0.8, 0.1, 0.1, 1.0], len(wall.loops)).astype(np.float32))
+    node = red.node_tree.nodes.new("ShaderNodeVertexColor")
+    node.layer_name = "Col"
+    red.node_tree.links.new(node.outputs["Color"], bsdf.inputs["Color"])
+    report = api.bake(objs, order=2, samples=64, bounces=1)
+    assert any("colour attribute 'Col'" in note for note in report.albedo_notes)
+    np.testing.assert_allclose(storage.read_bounce(objs[0].data), constant, rtol=1e-4, atol=1e-7)
+    red.node_tree.links.remove(bsdf.inputs["Color"].links[0])
     floor_x = np.array([v.co.x for v in objs[0].data.vertices])
     near = constant[floor_x < -1.2, :, 0].mean(axis=0)  # the floor by the wall: red over blue
     assert near[0] > 1.5 * near[2]

@@ -17,7 +17,7 @@ import numpy as np
 from ...core.transfer import uv_means
 from ..scene import mesh_read
 from ..scene.albedo_source import image_pixels, mesh_source
-from ..scene.materials import active_output
+from ..scene.materials import active_output, element_albedo
 
 DEFAULT_GREY = 0.8
 DIFFUSE_SHADERS = {"ShaderNodeBsdfPrincipled": "Base Color", "ShaderNodeBsdfDiffuse": "Color"}
@@ -83,14 +83,14 @@ def material_albedo(material, means):
     return _viewport(material), f"'{material.name}': its colour comes from nodes; bounced light uses the viewport one"
 
 
-def slot_colours(obj, notes, seen, means):
-    """(slots, 3) linear RGB per material slot of `obj` (at least one row), notes appended once."""
+def slot_colours(obj, notes, seen, means, quiet=()):
+    """(slots, 3) linear RGB per material slot of `obj` (at least one row), notes appended once
+    (but not for the slots in `quiet`, which the caller reads per triangle)."""
     colours = []
-    for slot in getattr(obj, "material_slots", []):
+    for i, slot in enumerate(getattr(obj, "material_slots", [])):
         colour, note = material_albedo(slot.material, means)
-        if note and note not in seen:
-            seen.add(note)
-            notes.append(note)
+        if i not in quiet:
+            _say(note, notes, seen)
         colours.append(colour)
     if not colours:
         colours.append((DEFAULT_GREY,) * 3)
@@ -116,11 +116,31 @@ def _image_triangles(src, mesh, corners, here, means):
     return uv_means.triangle_means(rgb, uv) * np.asarray(src.colour), note
 
 
+def _slot_triangles(src, mesh, corners, here, means):
+    """((here.sum(), 3) albedo of those triangles from an IMAGE or ATTRIBUTE source, or None, note)."""
+    if src.kind == "IMAGE":
+        values, note = _image_triangles(src, mesh, corners, here, means)
+        if values is not None:
+            note = f"'{src.image.name}': bounced light uses the image per triangle"
+        return values, note
+    colours = element_albedo(mesh, "CORNER", "ATTRIBUTE", src.attribute)[:, :3]
+    values = colours[corners[here]].mean(axis=1) * np.asarray(src.colour)
+    return values, f"colour attribute '{src.attribute}': bounced light uses its mean per triangle"
+
+
 def triangle_albedo(obj, mesh, faces, notes, seen, means, corners=None):
     """(T, 3) albedo of the loop triangles whose faces are `faces` (corners: their (T, 3) corner
     indices), clamped to [0, 1]. A slot whose colour is an image on a UV map the mesh has
-    (albedo_source.mesh_source) takes the image's mean over each triangle's UV triangle."""
-    colours = slot_colours(obj, notes, seen, means)
+    (albedo_source.mesh_source) takes the image's mean over each triangle's UV triangle; one whose
+    colour is a colour attribute, the mean of the triangle's corners."""
+    slots = mesh_read.read_face_materials(mesh)[faces]
+    sources = {}
+    if corners is not None:
+        for i, slot in enumerate(getattr(obj, "material_slots", [])):
+            src = mesh_source(slot.material, mesh) if slot.material is not None else None
+            if src is not None and src.kind in ("IMAGE", "ATTRIBUTE"):
+                sources[i] = src
+    colours = slot_colours(obj, notes, seen, means, quiet=set(sources))
     if colours.max() > 1.0 or colours.min() < 0.0:
         _say(
             f"'{obj.name}': a material colour outside 0 to 1 was clamped (an albedo above 1 would add energy)",
@@ -128,18 +148,14 @@ def triangle_albedo(obj, mesh, faces, notes, seen, means, corners=None):
             seen,
         )
     colours = np.clip(colours, 0.0, 1.0)
-    slots = np.clip(mesh_read.read_face_materials(mesh), 0, len(colours) - 1)[faces]
+    slots = np.clip(slots, 0, len(colours) - 1)
     albedo = colours[slots]
-    if corners is None:
-        return albedo
-    for i, slot in enumerate(obj.material_slots[: len(colours)]):
+    for i, src in sources.items():
         here = slots == i
-        src = mesh_source(slot.material, mesh) if slot.material is not None and here.any() else None
-        if src is None or src.kind != "IMAGE":
+        if not here.any():
             continue
-        values, note = _image_triangles(src, mesh, corners, here, means)
+        values, note = _slot_triangles(src, mesh, corners, here, means)
         if values is not None:
             albedo[here] = np.clip(values, 0.0, 1.0)
-            note = f"'{slot.material.name}': bounced light uses its image '{src.image.name}' per triangle"
         _say(note, notes, seen)
     return albedo
