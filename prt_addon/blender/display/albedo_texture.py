@@ -14,7 +14,7 @@ from ..scene.albedo_source import colour_space_note, image_pixels, slot_sources
 ALBEDO_SLOT = 5  # sampler slot (0 transfer, 1 and 2 shadow maps, 3 and 4 the specular's, 9 the colour table)
 
 GLSL = """
-vec3 albedo_px = vec3(-1.0);
+vec3 albedo_px;  // albedo_at(albedo_uv), set first in main()
 
 vec3 albedo_at(vec2 uv)
 {
@@ -27,14 +27,6 @@ vec3 albedo_at(vec2 uv)
   vec3 low = mix(texelFetch(albedo_tx, lo, 0).rgb, texelFetch(albedo_tx, ivec2(hi.x, lo.y), 0).rgb, f.x);
   vec3 high = mix(texelFetch(albedo_tx, ivec2(lo.x, hi.y), 0).rgb, texelFetch(albedo_tx, hi, 0).rgb, f.x);
   return mix(low, high, f.y);
-}
-
-vec3 albedo_here()
-{
-  if (albedo_px.x < 0.0) {
-    albedo_px = albedo_at(albedo_uv);
-  }
-  return albedo_px;
 }
 """
 

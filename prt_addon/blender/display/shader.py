@@ -70,7 +70,7 @@ def _albedo_diffuse(fragment):
     """`fragment` with the diffuse it writes multiplied by the albedo image (albedo_texture)."""
     head, tail = fragment.split("FragColor = vec4(display_transform(", 1)
     expr, rest = tail.rsplit("), 1.0);", 1)
-    return head + f"FragColor = vec4(display_transform(albedo_here() * ({expr})), 1.0);" + rest
+    return head + f"FragColor = vec4(display_transform(albedo_px * ({expr})), 1.0);" + rest
 
 
 # A texel bake: the relit radiance texture (texel_relight: max(sum_i L_i t_i, 0) per texel, made
@@ -201,10 +201,13 @@ def get_shader(count, lights=None, bounce_channels=0, domain="POINT", specular=F
         fragment = _albedo_diffuse(fragment)
     if specular:
         vertex, fragment = shader_specular.add_specular(info, vertex, fragment, mode, first, bool(lights), count)
-    if textured:  # the base colour the metals' and the lobe's Fresnel take, too
-        base = "spec_albedo / max(scale"
-        assert fragment.count(base) == (2 if specular else 0)
-        fragment = albedo_texture.GLSL + fragment.replace(base, "albedo_here() * " + base)
+    if textured:  # read first (the specular's set-up takes it as the base colour of metals and Fresnel)
+        base, main = "spec_albedo / max(scale", "void main()\n{\n"
+        assert fragment.count(base) == (2 if specular else 0) and main in fragment
+        fragment = fragment.replace(base, "albedo_px * " + base).replace(
+            main, main + "  albedo_px = albedo_at(albedo_uv);\n", 1
+        )
+        fragment = albedo_texture.GLSL + fragment
     colour.declare(info)
     info.fragment_out(0, "VEC4", "FragColor")
     info.vertex_source(vertex)
