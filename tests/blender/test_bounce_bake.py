@@ -144,27 +144,50 @@ def test_export_carries_the_bounced_transfer(bpy_module, empty_scene, tmp_path):
 
 
 def test_textured_and_over_bright_albedo(bpy_module, empty_scene):
-    """A wall coloured by an image bounces its mean colour; an albedo above 1 is clamped to 1."""
+    """A wall coloured by the red half of a red/blue image bounces red, as the same wall in constant
+    red does (the image's mean, purple, would not); an albedo above 1 is clamped to 1."""
     from prt_addon.blender.scene import storage
 
     bpy = bpy_module
     objs = open_room(bpy, empty_scene)
     api.project_world(empty_scene, 2)
-    red = objs[1].data.materials[0]
-    image = bpy.data.images.new("tex", 2, 2, float_buffer=True)
-    pixels = np.array([[0.9, 0.1, 0.1, 1], [0.5, 0.3, 0.1, 1], [0.7, 0.2, 0.0, 1], [0.1, 0.2, 0.4, 1]], np.float32)
+    wall = objs[1].data
+    red = wall.materials[0]
+    image = bpy.data.images.new("tex", 8, 8, float_buffer=True)
+    pixels = np.zeros((8, 8, 4), np.float32)
+    pixels[..., 3] = 1.0
+    pixels[:, :4, :3] = (0.8, 0.1, 0.1)
+    pixels[:, 4:, :3] = (0.1, 0.1, 0.8)
     image.pixels.foreach_set(pixels.ravel())
+    uv = np.empty(2 * len(wall.loops), np.float32)
+    wall.uv_layers[0].data.foreach_get("uv", uv)
+    wall.uv_layers[0].data.foreach_set("uv", 0.1 + 0.25 * uv)  # u in 0.1..0.35: the red half, inside
     texture = red.node_tree.nodes.new("ShaderNodeTexImage")
     texture.image = image
     bsdf = red.node_tree.nodes["Diffuse BSDF"]
     red.node_tree.links.new(texture.outputs["Color"], bsdf.inputs["Color"])
     report = api.bake(objs, order=2, samples=64, bounces=1)
-    assert any("mean colour of its image 'tex'" in note for note in report.albedo_notes)
+    assert any("'tex': bounced light uses the image per triangle" in note for note in report.albedo_notes)
+    assert not any("mean colour" in note for note in report.albedo_notes)
     textured = storage.read_bounce(objs[0].data).copy()
     red.node_tree.links.remove(bsdf.inputs["Color"].links[0])
-    bsdf.inputs["Color"].default_value = (*pixels[:, :3].mean(axis=0), 1.0)
+    bsdf.inputs["Color"].default_value = (0.8, 0.1, 0.1, 1.0)
     api.bake(objs, order=2, samples=64, bounces=1)
-    np.testing.assert_allclose(textured, storage.read_bounce(objs[0].data), rtol=1e-5, atol=1e-7)
+    constant = storage.read_bounce(objs[0].data)
+    np.testing.assert_allclose(textured, constant, rtol=1e-4, atol=1e-7)
+    # The same red from a colour attribute on the wall (its corners' mean per triangle).
+    wall.color_attributes.new("Col", "FLOAT_COLOR", "CORNER")
+    wall.attributes["Col"].data.foreach_set("color", np.tile([0.8, 0.1, 0.1, 1.0], len(wall.loops)).astype(np.float32))
+    node = red.node_tree.nodes.new("ShaderNodeVertexColor")
+    node.layer_name = "Col"
+    red.node_tree.links.new(node.outputs["Color"], bsdf.inputs["Color"])
+    report = api.bake(objs, order=2, samples=64, bounces=1)
+    assert any("colour attribute 'Col'" in note for note in report.albedo_notes)
+    np.testing.assert_allclose(storage.read_bounce(objs[0].data), constant, rtol=1e-4, atol=1e-7)
+    red.node_tree.links.remove(bsdf.inputs["Color"].links[0])
+    floor_x = np.array([v.co.x for v in objs[0].data.vertices])
+    near = constant[floor_x < -1.2, :, 0].mean(axis=0)  # the floor by the wall: red over blue
+    assert near[0] > 1.5 * near[2]
     bsdf.inputs["Color"].default_value = (1.5, 0.2, 0.2, 1.0)
     report = api.bake(objs, order=2, samples=64, bounces=1)
     assert any("clamped" in note for note in report.albedo_notes)

@@ -3,7 +3,9 @@
 The rule is the display's Material albedo (scene/materials.py) for diffuse shaders: the
 Principled BSDF's Base Color or the Diffuse BSDF's Color; no material: 0.8 grey (Blender's
 default surface); no node tree: the material's viewport colour. A colour that comes from an
-Image Texture node is the image's mean colour (linear); from any other node, the viewport colour.
+Image Texture node on a UV map the mesh has (the display's rule, scene/albedo_source.py) is the
+image's mean over each triangle's UV triangle (linear, times the source's colour); other images
+their mean colour; any other node, the viewport colour.
 A surface whose shader is not diffuse (Glossy, Glass, ...) reflects with its viewport colour, and
 an Emission shader alone reflects nothing (emission is not light for the bake). The report says
 which materials were read these ways. Values above 1 (an energy gain) are clamped to 1, with a
@@ -12,8 +14,10 @@ warning.
 
 import numpy as np
 
+from ...core.transfer import uv_means
 from ..scene import mesh_read
-from ..scene.materials import active_output
+from ..scene.albedo_source import image_pixels, mesh_source
+from ..scene.materials import active_output, element_albedo
 
 DEFAULT_GREY = 0.8
 DIFFUSE_SHADERS = {"ShaderNodeBsdfPrincipled": "Base Color", "ShaderNodeBsdfDiffuse": "Color"}
@@ -79,28 +83,79 @@ def material_albedo(material, means):
     return _viewport(material), f"'{material.name}': its colour comes from nodes; bounced light uses the viewport one"
 
 
-def slot_colours(obj, notes, seen, means):
-    """(slots, 3) linear RGB per material slot of `obj` (at least one row), notes appended once."""
+def slot_colours(obj, notes, seen, means, quiet=()):
+    """(slots, 3) linear RGB per material slot of `obj` (at least one row), notes appended once
+    (but not for the slots in `quiet`, which the caller reads per triangle)."""
     colours = []
-    for slot in getattr(obj, "material_slots", []):
+    for i, slot in enumerate(getattr(obj, "material_slots", [])):
         colour, note = material_albedo(slot.material, means)
-        if note and note not in seen:
-            seen.add(note)
-            notes.append(note)
+        if i not in quiet:
+            _say(note, notes, seen)
         colours.append(colour)
     if not colours:
         colours.append((DEFAULT_GREY,) * 3)
     return np.asarray(colours, dtype=np.float64)
 
 
-def triangle_albedo(obj, mesh, faces, notes, seen, means):
-    """(T, 3) albedo of the loop triangles whose faces are `faces`, clamped to [0, 1]."""
-    colours = slot_colours(obj, notes, seen, means)
+def _say(note, notes, seen):
+    if note and note not in seen:
+        seen.add(note)
+        notes.append(note)
+
+
+def _image_triangles(src, mesh, corners, here, means):
+    """(here.sum(), 3) the mean of src's image over each of those triangles' UV triangles, times its
+    colour; None when the image has no pixels."""
+    key = ("pixels", src.image.as_pointer())
+    if key not in means:
+        means[key] = image_pixels(src.image)
+    rgb, note = means[key]
+    if rgb is None:
+        return None, note
+    uv = mesh_read.read_corner_uvs(mesh, src.uv_map)[corners[here]]
+    return uv_means.triangle_means(rgb, uv) * np.asarray(src.colour), note
+
+
+def _slot_triangles(src, mesh, corners, here, means):
+    """((here.sum(), 3) albedo of those triangles from an IMAGE or ATTRIBUTE source, or None, note)."""
+    if src.kind == "IMAGE":
+        values, note = _image_triangles(src, mesh, corners, here, means)
+        if values is not None:
+            note = f"'{src.image.name}': bounced light uses the image per triangle"
+        return values, note
+    colours = element_albedo(mesh, "CORNER", "ATTRIBUTE", src.attribute)[:, :3]
+    values = colours[corners[here]].mean(axis=1) * np.asarray(src.colour)
+    return values, f"colour attribute '{src.attribute}': bounced light uses its mean per triangle"
+
+
+def triangle_albedo(obj, mesh, faces, notes, seen, means, corners=None):
+    """(T, 3) albedo of the loop triangles whose faces are `faces` (corners: their (T, 3) corner
+    indices), clamped to [0, 1]. A slot whose colour is an image on a UV map the mesh has
+    (albedo_source.mesh_source) takes the image's mean over each triangle's UV triangle; one whose
+    colour is a colour attribute, the mean of the triangle's corners."""
+    slots = mesh_read.read_face_materials(mesh)[faces]
+    sources = {}
+    if corners is not None:
+        for i, slot in enumerate(getattr(obj, "material_slots", [])):
+            src = mesh_source(slot.material, mesh) if slot.material is not None else None
+            if src is not None and src.kind in ("IMAGE", "ATTRIBUTE"):
+                sources[i] = src
+    colours = slot_colours(obj, notes, seen, means, quiet=set(sources))
     if colours.max() > 1.0 or colours.min() < 0.0:
-        note = f"'{obj.name}': a material colour outside 0 to 1 was clamped (an albedo above 1 would add energy)"
-        if note not in seen:
-            seen.add(note)
-            notes.append(note)
+        _say(
+            f"'{obj.name}': a material colour outside 0 to 1 was clamped (an albedo above 1 would add energy)",
+            notes,
+            seen,
+        )
     colours = np.clip(colours, 0.0, 1.0)
-    slots = np.clip(mesh_read.read_face_materials(mesh), 0, len(colours) - 1)
-    return colours[slots[faces]]
+    slots = np.clip(slots, 0, len(colours) - 1)
+    albedo = colours[slots]
+    for i, src in sources.items():
+        here = slots == i
+        if not here.any():
+            continue
+        values, note = _slot_triangles(src, mesh, corners, here, means)
+        if values is not None:
+            albedo[here] = np.clip(values, 0.0, 1.0)
+        _say(note, notes, seen)
+    return albedo

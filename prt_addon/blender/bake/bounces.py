@@ -57,7 +57,7 @@ class BounceSystem:
                 local = _node_triangles(points, corners, mesh_read.read_corner_verts(src.mesh))
                 node_triangles.append(local.astype(np.int64) + offset)
                 count = len(points.positions)
-            albedo.append(triangle_albedo(src.obj, src.mesh, faces, self.notes, seen, means))
+            albedo.append(triangle_albedo(src.obj, src.mesh, faces, self.notes, seen, means, corners))
             # A mirrored part (negative determinant) has its winding, hence its geometric
             # normals, reversed in world space: flip them back so its front faces stay front.
             orientation.append(np.full(len(faces), -1.0 if mirrored else 1.0))

@@ -13,10 +13,11 @@ import gpu
 import numpy as np
 
 from ..scene import storage
+from ..scene.albedo_source import slot_sources
 from ..scene.lighting import bounce_light_extra, exposure_scale, light_in_local_frame, world_light, world_lights
-from ..scene.materials import _slot_tints, display_settings, material_colour
+from ..scene.materials import display_settings
 from ..scene.principled import principled_specular
-from . import colour, light_markers, sky_texture, texel_relight
+from . import albedo_texture, colour, light_markers, sky_texture, texel_relight
 from .gpu_cache import ObjectState, _object_cache, _prune, clear_caches, get_mesh_entry
 from .shader import get_shader, light_ubo_bytes
 from .shader_specular import bind_slot, bind_textures, eye_point
@@ -74,12 +75,13 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
         info, _problem = storage.usable_bake(obj.data, check_topology=False)
         if info is None:
             continue
-        entry = get_mesh_entry(obj.data, info, albedo_mode, albedo_attr, obj, depsgraph)
+        sources = slot_sources(obj) if albedo_mode == "MATERIAL" else None
+        entry = get_mesh_entry(obj.data, info, albedo_mode, albedo_attr, obj, depsgraph, sources)
         if not entry.batches:
             continue
         slot_specular = [principled_specular(slot.material) for slot in obj.material_slots] if sky else []
         specular = any(x is not None for x in slot_specular)
-        shader = get_shader(info.count, layout, info.channels, info.domain, specular)
+        shader = get_shader(info.count, layout, info.channels, info.domain, specular, entry.textured)
         state = _object_cache.setdefault(obj.as_pointer(), ObjectState())
         mw = np.array(obj.matrix_world, dtype=np.float64)
         size_key = (info.count, info.channels)
@@ -109,20 +111,34 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
         elif entry.texture is not None:
             shader.uniform_int("per_row", entry.per_row)
             shader.uniform_sampler("transfer_tx", entry.texture)
-        tints = _slot_tints(obj, albedo_mode)
+        tints, textures = _slot_albedo(obj, sources, entry.textured)
         for mat_index, batch in entry.batches:
-            tint = (1.0, 1.0, 1.0, 1.0)
-            if tints:
-                tint = tints[min(mat_index, len(tints) - 1)]
-            elif albedo_mode == "MATERIAL":
-                tint = material_colour(None)
-            shader.uniform_float("tint", tint)
+            slot = min(mat_index, len(tints) - 1)
+            shader.uniform_float("tint", tints[slot])
+            if entry.textured:
+                shader.uniform_sampler("albedo_tx", textures[slot])
             if specular:
                 slot = min(mat_index, len(slot_specular) - 1)
                 bind_slot(shader, state, slot, mw, spec_frame, slot_specular[slot])
             batch.draw(shader)
         drawn += 1
     return drawn
+
+
+def _slot_albedo(obj, sources, textured):
+    """(tints, textures) per slot: the sources' colours (white without sources) and, for a
+    textured entry, their textures; an image that could not be read draws the viewport colour."""
+    if sources is None:
+        return [(1.0, 1.0, 1.0, 1.0)], None
+    tints = [(*src.colour, 1.0) for src in sources]
+    if not textured:
+        return tints, None
+    textures = albedo_texture.slot_textures(sources)
+    for i, tex in enumerate(textures):
+        if tex is None:
+            tints[i] = tuple(obj.material_slots[i].material.diffuse_color)
+            textures[i] = albedo_texture.white()
+    return tints, textures
 
 
 def _relit(state, entry, count, channels):

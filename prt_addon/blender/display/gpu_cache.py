@@ -17,8 +17,9 @@ from .shader import shader_mode, transfer_vec4s
 class MeshEntry:
     """GPU data of one baked mesh: vertex buffer, one batch per material slot, transfer texture."""
 
-    def __init__(self, key, batches, texture, per_row, evaluated, texel_grid=None):
+    def __init__(self, key, batches, texture, per_row, evaluated, texel_grid=None, textured=False):
         self.key = key
+        self.textured = textured  # drawn per corner with the albedo's UVs (albedo_texture)
         self.batches = batches  # list of (material_index, GPUBatch)
         self.texture = texture
         self.per_row = per_row
@@ -60,7 +61,7 @@ def forget_mesh(mesh):
         del _mesh_cache[key]
 
 
-def _cache_key(mesh, info, albedo_mode, albedo_attr):
+def _cache_key(mesh, info, albedo_mode, albedo_attr, sources=None):
     record = info.record
     rec = record.to_dict() if hasattr(record, "to_dict") else dict(record)
     return (
@@ -70,7 +71,31 @@ def _cache_key(mesh, info, albedo_mode, albedo_attr):
         len(mesh.polygons),
         albedo_mode,
         albedo_attr,
+        tuple((s.kind, s.uv_map, s.attribute) for s in sources or ()),
     )
+
+
+def textured(sources):
+    """Whether slot sources (albedo_source.slot_sources) need the per-corner albedo draw."""
+    return any(s.kind != "CONSTANT" for s in sources or ())
+
+
+def corner_albedo(mesh, sources):
+    """((corners, 4) albedo factor, (corners, 2) UVs) per corner from each face's slot source:
+    the colour attribute of an ATTRIBUTE slot, the UV map of an IMAGE slot; ones and zeros elsewhere."""
+    n = len(mesh.loops)
+    albedo = np.ones((n, 4), dtype=np.float32)
+    uvs = np.zeros((n, 2), dtype=np.float32)
+    starts = mesh_read.read_face_starts(mesh)
+    sizes = np.diff(starts, append=np.int32(n))
+    slot = np.repeat(np.clip(mesh_read.read_face_materials(mesh), 0, len(sources) - 1), sizes)
+    for i, src in enumerate(sources):
+        here = slot == i
+        if src.kind == "ATTRIBUTE" and here.any():
+            albedo[here] = element_albedo(mesh, "CORNER", "ATTRIBUTE", src.attribute)[here]
+        elif src.kind == "IMAGE" and here.any():
+            uvs[here] = mesh_read.read_corner_uvs(mesh, src.uv_map)[here]
+    return albedo, uvs
 
 
 def read_transfer(mesh, info):
@@ -107,13 +132,18 @@ def element_normals(mesh, domain):
 
 
 def build_mesh_entry(
-    mesh, info, key, albedo_mode="MATERIAL", albedo_attr="", positions=None, evaluated=None, normals=None
+    mesh, info, key, albedo_mode="MATERIAL", albedo_attr="", positions=None, evaluated=None, normals=None, sources=None
 ):
     """Upload a baked mesh: vertex buffer per element, index buffers per material, transfer.
     key: its _cache_key; positions: (vertices, 3) local positions to draw instead of the mesh's
     (deformed_mesh), with normals their (elements, 3) normals; evaluated: the evaluated positions
-    the entry stands for (get_mesh_entry)."""
-    domain = "CORNER" if info.domain == "TEXEL" else info.domain  # (a texel bake draws its UVs per corner)
+    the entry stands for (get_mesh_entry); sources: the slots' AlbedoSources in Material mode. A
+    mesh with an image or attribute slot is drawn per corner (a vertex bake's elements copied to
+    its corners), with each corner's albedo and UV."""
+    per_corner = textured(sources) and info.domain == "POINT"
+    if per_corner and normals is None:
+        normals = element_normals(mesh, "POINT")
+    domain = "POINT" if info.domain == "POINT" and not per_corner else "CORNER"  # (texel bakes: UVs per corner)
     n = element_count(mesh, domain)
     if positions is None:
         positions = mesh_read.read_positions(mesh)
@@ -128,17 +158,27 @@ def build_mesh_entry(
     mesh.loop_triangles.foreach_get("material_index", mat_index)
     # The bake's contact tangents per element: the sun shader moves its shadow-map lookups along
     # them, off a surface that touches this one (shader_suns.py; docs/display.md, "Joins").
-    if domain == "CORNER":
+    if per_corner:
+        corner_verts = mesh_read.read_corner_verts(mesh)
+        tangents = inward_tangents(positions, normals, positions, corner_verts[tris])[corner_verts]
+        positions, normals = positions[corner_verts], normals[corner_verts]
+    elif domain == "CORNER":
         corner_verts = mesh_read.read_corner_verts(mesh)
         tangents = inward_tangents(positions[corner_verts], normals, positions, corner_verts[tris], corner_verts)
         positions = np.ascontiguousarray(positions[corner_verts])
     else:
         tangents = inward_tangents(positions, normals, positions, tris)
-    albedo = element_albedo(mesh, domain, albedo_mode, albedo_attr)
+    uvs = None
+    if textured(sources):
+        albedo, uvs = corner_albedo(mesh, sources)
+    else:
+        albedo = element_albedo(mesh, domain, albedo_mode, albedo_attr)
 
     vec4s = transfer_vec4s(info.count, info.channels)
-    mode = shader_mode(vec4s, info.domain)
+    mode = shader_mode(vec4s, info.domain, uvs is not None)
     transfer = None if mode == "TEXEL" else read_transfer(mesh, info)
+    if per_corner:
+        transfer = np.ascontiguousarray(transfer[corner_verts])
     fmt = gpu.types.GPUVertFormat()
     fmt.attr_add(id="prt_pos", comp_type="F32", len=3, fetch_mode="FLOAT")
     fmt.attr_add(id="prt_albedo", comp_type="F32", len=4, fetch_mode="FLOAT")
@@ -149,11 +189,15 @@ def build_mesh_entry(
             fmt.attr_add(id=f"prt_t{k}", comp_type="F32", len=4, fetch_mode="FLOAT")
     elif mode == "TEXEL":
         fmt.attr_add(id="prt_uv", comp_type="F32", len=2, fetch_mode="FLOAT")
+    if uvs is not None:
+        fmt.attr_add(id="prt_albedo_uv", comp_type="F32", len=2, fetch_mode="FLOAT")
     vbo = gpu.types.GPUVertBuf(fmt, n)
     vbo.attr_fill("prt_pos", positions)
     vbo.attr_fill("prt_albedo", albedo)
     vbo.attr_fill("prt_nrm", np.ascontiguousarray(normals, dtype=np.float32))
     vbo.attr_fill("prt_tan", tangents.astype(np.float32))
+    if uvs is not None:
+        vbo.attr_fill("prt_albedo_uv", uvs)
     texture, per_row, grid = None, 0, None
     if mode == "ATTR":
         for k in range(vec4s):
@@ -174,7 +218,7 @@ def build_mesh_entry(
             seq = np.ascontiguousarray(tris[order_idx[s:e]])
             ibo = gpu.types.GPUIndexBuf(type="TRIS", seq=seq)
             batches.append((int(sorted_mat[s]), gpu.types.GPUBatch(type="TRIS", buf=vbo, elem=ibo)))
-    return MeshEntry(key, batches, texture, per_row, evaluated, grid)
+    return MeshEntry(key, batches, texture, per_row, evaluated, grid, uvs is not None)
 
 
 def _texel_texture(info):
@@ -201,14 +245,15 @@ def _transfer_texture(transfer, count):
     return tex, per_row
 
 
-def get_mesh_entry(mesh, info, albedo_mode, albedo_attr, obj=None, depsgraph=None):
+def get_mesh_entry(mesh, info, albedo_mode, albedo_attr, obj=None, depsgraph=None, sources=None):
     """The cached batches of `mesh`, or of `obj` when its modifiers or shape keys deform it:
     those are drawn at their evaluated positions, read again at every draw; when they moved (an
-    animated armature, a shape-key value being dragged) the whole entry is built again."""
+    animated armature, a shape-key value being dragged) the whole entry is built again.
+    sources: the slots' AlbedoSources (Material mode), part of the cache key."""
     mesh_eval = None if obj is None else deformed_mesh(obj, depsgraph)
     positions = None if mesh_eval is None else mesh_read.read_positions(mesh_eval)
     ptr = (mesh.as_pointer(), 0 if positions is None else obj.as_pointer())
-    key = _cache_key(mesh, info, albedo_mode, albedo_attr)
+    key = _cache_key(mesh, info, albedo_mode, albedo_attr, sources)
     entry = _mesh_cache.get(ptr)
     if entry is None or entry.key != key or (positions is not None and not np.array_equal(entry.evaluated, positions)):
         drawn, normals = positions, None
@@ -218,7 +263,7 @@ def get_mesh_entry(mesh, info, albedo_mode, albedo_attr, obj=None, depsgraph=Non
             drawn = None
         if drawn is not None:
             normals = element_normals(mesh_eval, info.domain)
-        entry = build_mesh_entry(mesh, info, key, albedo_mode, albedo_attr, drawn, positions, normals)
+        entry = build_mesh_entry(mesh, info, key, albedo_mode, albedo_attr, drawn, positions, normals, sources)
         _mesh_cache[ptr] = entry
     return entry
 

@@ -13,7 +13,7 @@ import gpu
 import numpy as np
 
 from .. import caches
-from . import colour, shader_specular
+from . import albedo_texture, colour, shader_specular
 from .shader_suns import UBO_SOURCE, add_suns
 
 # GL guarantees (and llvmpipe offers) 16 vertex attributes; position, albedo, and for the suns
@@ -59,10 +59,18 @@ def _dot_line(tex, k, count):
     )
 
 
-def shader_mode(count, domain="POINT"):
+def shader_mode(count, domain="POINT", textured=False):
+    """textured: the albedo's UV map takes one more vertex attribute."""
     if domain == "TEXEL":
         return "TEXEL"
-    return "ATTR" if count <= MAX_ATTRIBUTE_TRANSFER else "TEXTURE"
+    return "ATTR" if count <= MAX_ATTRIBUTE_TRANSFER - int(textured) else "TEXTURE"
+
+
+def _albedo_diffuse(fragment):
+    """`fragment` with the diffuse it writes multiplied by the albedo image (albedo_texture)."""
+    head, tail = fragment.split("FragColor = vec4(display_transform(", 1)
+    expr, rest = tail.rsplit("), 1.0);", 1)
+    return head + f"FragColor = vec4(display_transform(albedo_px * ({expr})), 1.0);" + rest
 
 
 # A texel bake: the relit radiance texture (texel_relight: max(sum_i L_i t_i, 0) per texel, made
@@ -107,15 +115,16 @@ def transfer_vec4s(count, bounce_channels=0):
     return count * (1 + bounce_channels)
 
 
-def get_shader(count, lights=None, bounce_channels=0, domain="POINT", specular=False):
+def get_shader(count, lights=None, bounce_channels=0, domain="POINT", specular=False, textured=False):
     """Compiled shader for `count` transfer vec4s per part, with the suns' shadow views when `lights`
     is a (compact views, wide views) pair (shader_suns.view_layout; None or (0, 0): no suns) and a bounced transfer
     of `bounce_channels` channels (0: none), with the Principled specular when `specular`
-    (shader_specular) (cached). Raises RuntimeError on failure."""
+    (shader_specular), with an albedo image per pixel when `textured` (albedo_texture) (cached).
+    Raises RuntimeError on failure."""
     total = transfer_vec4s(count, bounce_channels)
-    mode = shader_mode(total, domain)
+    mode = shader_mode(total, domain, textured)
     lights = tuple(lights) if lights and any(lights) else None
-    key = (mode, count, lights, bounce_channels, bool(specular))
+    key = (mode, count, lights, bounce_channels, bool(specular), bool(textured))
     shader = _shaders.get(key)
     if shader is not None:
         return shader
@@ -171,6 +180,14 @@ def get_shader(count, lights=None, bounce_channels=0, domain="POINT", specular=F
             "  }"
         )
     first = {"ATTR": 2 + total, "TEXEL": 3}.get(mode, 2)
+    if textured:
+        info.vertex_in(first, "VEC2", "prt_albedo_uv")
+        info.sampler(albedo_texture.ALBEDO_SLOT, "FLOAT_2D", "albedo_tx")
+        albedo_iface = gpu.types.GPUStageInterfaceInfo("prt_albedo_iface")
+        albedo_iface.smooth("VEC2", "albedo_uv")
+        info.vertex_out(albedo_iface)
+        body += "\n  albedo_uv = prt_albedo_uv;"
+        first += 1
     if lights:
         vertex, fragment = add_suns(info, lights, _VERTEX_COMMON % body, first, specular)
     else:
@@ -180,8 +197,17 @@ def get_shader(count, lights=None, bounce_channels=0, domain="POINT", specular=F
         vertex, fragment = _VERTEX_COMMON % body, _FRAGMENT
     if mode == "TEXEL":
         fragment = _texel_fragment(fragment, count)
+    if textured:
+        fragment = _albedo_diffuse(fragment)
     if specular:
         vertex, fragment = shader_specular.add_specular(info, vertex, fragment, mode, first, bool(lights), count)
+    if textured:  # read first (the specular's set-up takes it as the base colour of metals and Fresnel)
+        base, main = "spec_albedo / max(scale", "void main()\n{\n"
+        assert fragment.count(base) == (2 if specular else 0) and main in fragment
+        fragment = fragment.replace(base, "albedo_px * " + base).replace(
+            main, main + "  albedo_px = albedo_at(albedo_uv);\n", 1
+        )
+        fragment = albedo_texture.GLSL + fragment
     colour.declare(info)
     info.fragment_out(0, "VEC4", "FragColor")
     info.vertex_source(vertex)

@@ -245,7 +245,7 @@ def occlusion_lines(mode, count):
         double_factorial = float(np.prod(np.arange(2 * m - 1, 0, -2))) if m > 0 else 1.0
         for l in range(m, order):
             if l == m:
-                q = f"{double_factorial!r}"
+                q = f"{float(double_factorial)!r}"
             elif l == m + 1:
                 q = f"{2 * m + 1}.0 * d.z * Q{l - 1}_{m}"
             else:
@@ -253,21 +253,21 @@ def occlusion_lines(mode, count):
             lines.append(f"  float Q{l}_{m} = {q};")
             k = np.sqrt((2 * l + 1) / (4 * np.pi) / np.prod(np.arange(l - m + 1, l + m + 1, dtype=np.float64)))
             if m == 0:
-                lines.append(f"  seen += {band(l)} * {coeff(l * l + l)} * ({k!r} * Q{l}_0);")
+                lines.append(f"  seen += {band(l)} * {coeff(l * l + l)} * ({float(k)!r} * Q{l}_0);")
             else:
                 k *= np.sqrt(2.0)
                 lines.append(
-                    f"  seen += {band(l)} * ({k!r} * Q{l}_{m}) * ({coeff(l * l + l + m)} * c{m} + "
+                    f"  seen += {band(l)} * ({float(k)!r} * Q{l}_{m}) * ({coeff(l * l + l + m)} * c{m} + "
                     f"{coeff(l * l + l - m)} * s{m});"
                 )
     lines += ["  float mu = dot(sn, sr);", "  float p0 = 1.0;", "  float p1 = mu;"]
-    open_terms = [f"{band(0)} * {zonal[0] * np.sqrt(1 / (4 * np.pi))!r}"]
+    open_terms = [f"{band(0)} * {float(zonal[0] * np.sqrt(1 / (4 * np.pi)))!r}"]
     if order > 1:
-        open_terms.append(f"{band(1)} * {zonal[1] * np.sqrt(3 / (4 * np.pi))!r} * mu")
+        open_terms.append(f"{band(1)} * {float(zonal[1] * np.sqrt(3 / (4 * np.pi)))!r} * mu")
     for l in range(2, order):
         lines.append(f"  float p{l} = ({2 * l - 1}.0 * mu * p{l - 1} - {l - 1}.0 * p{l - 2}) / {l}.0;")
         if zonal[l] != 0.0:
-            open_terms.append(f"{band(l)} * {zonal[l] * np.sqrt((2 * l + 1) / (4 * np.pi))!r} * p{l}")
+            open_terms.append(f"{band(l)} * {float(zonal[l] * np.sqrt((2 * l + 1) / (4 * np.pi)))!r} * p{l}")
     lines.append("  float open_ = " + " + ".join(open_terms) + ";")
     lines.append("  spec_occ = open_ > 1e-8 ? seen / open_ : 1.0;")
     return "\n".join(lines) + "\n"

@@ -1,10 +1,10 @@
 """What a material's diffuse albedo comes from: a constant colour, an image on a UV map, or a colour attribute."""
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .materials import active_output
+from .materials import active_output, colour_attribute
 
 DIFFUSE_INPUTS = {"ShaderNodeBsdfPrincipled": "Base Color", "ShaderNodeBsdfDiffuse": "Color"}
 
@@ -75,7 +75,7 @@ def albedo_source(material):
     shader = output.inputs["Surface"].links[0].from_node
     socket_name = DIFFUSE_INPUTS.get(shader.bl_idname)
     if socket_name is None:
-        return AlbedoSource("CONSTANT", viewport, note=f"'{material.name}': not a diffuse shader")
+        return _fallback(material, f"'{material.name}': not a diffuse shader")
     socket = shader.inputs[socket_name]
     if not socket.is_linked:
         return AlbedoSource("CONSTANT", _constant(socket))
@@ -84,8 +84,56 @@ def albedo_source(material):
         return AlbedoSource("CONSTANT", viewport, note=note + "; its viewport colour is used")
     image = source.image
     if image is not None and image.source == "TILED":
-        return AlbedoSource("CONSTANT", viewport, note=f"'{material.name}': UDIM tiles are not read")
+        return _fallback(material, f"'{material.name}': UDIM tiles are not read")
     return source
+
+
+def _fallback(material, note):
+    return AlbedoSource("CONSTANT", tuple(material.diffuse_color)[:3], note=note + "; its viewport colour is used")
+
+
+def mesh_source(material, mesh):
+    """The AlbedoSource drawn for `material` on `mesh`: albedo_source, with uv_map resolved ("" ->
+    the mesh's active render UV map) and the attribute's name; an image on a UV map the mesh lacks,
+    an image without pixels or a missing colour attribute fall back to the viewport colour, with a note."""
+    src = albedo_source(material)
+    if src.kind == "ATTRIBUTE":
+        attr = colour_attribute(mesh, src.attribute)
+        if attr is None:
+            return _fallback(material, f"'{material.name}': '{mesh.name}' has no colour attribute '{src.attribute}'")
+        return replace(src, attribute=attr.name)
+    if src.kind != "IMAGE":
+        return src
+    layers = mesh.uv_layers
+    if len(layers) == 0:
+        return _fallback(material, f"'{material.name}': '{mesh.name}' has no UV map for its image")
+    uv_map = src.uv_map
+    if not uv_map:
+        active = next((layer for layer in layers if layer.active_render), layers[0])
+        uv_map = active.name
+    if layers.get(uv_map) is None:
+        return _fallback(material, f"'{material.name}': '{mesh.name}' has no UV map '{uv_map}'")
+    if src.image.size[0] == 0 or src.image.size[1] == 0:
+        return _fallback(
+            material, f"'{material.name}': image '{src.image.name}' has no pixels (missing or unreadable file)"
+        )
+    return replace(src, uv_map=uv_map)
+
+
+def slot_sources(obj):
+    """Per material slot of `obj` (at least one entry), mesh_source of its material."""
+    materials = [slot.material for slot in obj.material_slots] or [None]
+    return [mesh_source(material, obj.data) if material is not None else albedo_source(None) for material in materials]
+
+
+def colour_space_note(image):
+    """The note image_pixels gives for the image's colour space (without reading its pixels)."""
+    space = image.colorspace_settings.name
+    if space == "Non-Color":
+        return f"image '{image.name}' is Non-Color data on a colour input: its values are used as they are"
+    if not image.is_float and space not in LINEAR_SPACES and space != "sRGB":
+        return f"image '{image.name}': colour space {space} read as sRGB"
+    return ""
 
 
 LINEAR_SPACES = {"Non-Color", "Linear Rec.709", "Linear", "Raw"}

@@ -1,4 +1,4 @@
-"""The albedo the display multiplies by: material base colours, a colour attribute, or white."""
+"""The display's albedo settings, colour attributes per element, the active Material Output node."""
 
 import numpy as np
 
@@ -12,7 +12,7 @@ def display_settings(scene):
     return settings.albedo_source, settings.albedo_attribute
 
 
-def _albedo_attribute(mesh, name):
+def colour_attribute(mesh, name):
     if name:
         attr = mesh.color_attributes.get(name)
         return attr
@@ -35,7 +35,7 @@ def element_albedo(mesh, domain, mode, attr_name):
     ones = np.ones((n, 4), dtype=np.float32)
     if mode != "ATTRIBUTE":
         return ones
-    attr = _albedo_attribute(mesh, attr_name)
+    attr = colour_attribute(mesh, attr_name)
     if attr is None:
         return ones
     values = np.empty(element_count(mesh, attr.domain) * 4, dtype=np.float32)
@@ -60,22 +60,3 @@ def active_output(material):
         if node.bl_idname == "ShaderNodeOutputMaterial" and node.is_active_output:
             return node
     return None
-
-
-def material_colour(material):
-    """Linear RGBA base colour of a material: Principled/Diffuse BSDF input, else diffuse_color."""
-    if material is None:
-        return (0.8, 0.8, 0.8, 1.0)
-    output = active_output(material)
-    if output is not None and output.inputs["Surface"].is_linked:
-        bsdf = output.inputs["Surface"].links[0].from_node
-        sock = bsdf.inputs.get("Base Color") or bsdf.inputs.get("Color")
-        if sock is not None and not sock.is_linked and hasattr(sock, "default_value"):
-            return tuple(sock.default_value)
-    return tuple(material.diffuse_color)
-
-
-def _slot_tints(obj, albedo_mode):
-    if albedo_mode != "MATERIAL":
-        return None
-    return [material_colour(slot.material) for slot in obj.material_slots]

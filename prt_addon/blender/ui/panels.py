@@ -2,6 +2,7 @@
 
 import bpy
 
+from ..display.albedo_texture import notes as albedo_notes
 from ..display.draw import draws_in
 from ..scene import lighting, storage
 from ..world import light_split, nodes
@@ -110,6 +111,9 @@ class VIEW3D_PT_prt_display(PRTSubPanel, bpy.types.Panel):
                 wrapped_label(layout, context, f"{obj.name} is not drawn: {problem}", icon="ERROR")
             else:
                 layout.label(text=f"{obj.name}: drawn at order {info.order}")
+                if settings.albedo_source == "MATERIAL":
+                    for note in albedo_notes(obj):
+                        wrapped_label(layout, context, note, icon="INFO")
 
 
 CLASSES = [

@@ -1,0 +1,105 @@
+"""Albedo images as GPU textures (scene-linear RGBA16F, from image_pixels), cached per image; their GLSL.
+
+The fragment shader reads them with albedo_at(uv): Blender's Image Texture defaults, Linear and
+Repeat (texel centres at (i + 0.5) / size, wrapping), written out with texelFetch. An image is
+read again when its name, size, source, file, colour space or dirty flag changes.
+"""
+
+import gpu
+import numpy as np
+
+from .. import caches
+from ..scene.albedo_source import colour_space_note, image_pixels, slot_sources
+
+ALBEDO_SLOT = 5  # sampler slot (0 transfer, 1 and 2 shadow maps, 3 and 4 the specular's, 9 the colour table)
+
+GLSL = """
+vec3 albedo_px;  // albedo_at(albedo_uv), set first in main()
+
+vec3 albedo_at(vec2 uv)
+{
+  ivec2 size = textureSize(albedo_tx, 0);
+  vec2 p = uv * vec2(size) - 0.5;
+  ivec2 a = ivec2(floor(p));
+  vec2 f = p - vec2(a);
+  ivec2 lo = (a % size + size) % size;
+  ivec2 hi = (lo + 1) % size;
+  vec3 low = mix(texelFetch(albedo_tx, lo, 0).rgb, texelFetch(albedo_tx, ivec2(hi.x, lo.y), 0).rgb, f.x);
+  vec3 high = mix(texelFetch(albedo_tx, ivec2(lo.x, hi.y), 0).rgb, texelFetch(albedo_tx, hi, 0).rgb, f.x);
+  return mix(low, high, f.y);
+}
+"""
+
+_textures = {}  # image pointer -> (key, GPUTexture or None, note)
+_white = []
+
+
+@caches.on_clear
+def clear_textures():
+    _textures.clear()
+    _white.clear()
+
+
+def _image_key(image):
+    return (
+        image.name,
+        tuple(image.size),
+        image.source,
+        image.filepath_raw,
+        image.colorspace_settings.name,
+        image.is_float,
+        image.is_dirty,
+    )
+
+
+def _upload(rgb):
+    height, width = rgb.shape[:2]
+    data = np.ones((height, width, 4), dtype=np.float32)
+    data[..., :3] = rgb
+    buf = gpu.types.Buffer("FLOAT", data.size, data.reshape(-1))
+    return gpu.types.GPUTexture((width, height), format="RGBA16F", data=buf)
+
+
+def white():
+    """A 1x1 white texture: what untextured slots of a textured mesh sample."""
+    if not _white:
+        _white.append(_upload(np.ones((1, 1, 3), dtype=np.float32)))
+    return _white[0]
+
+
+def image_texture(image):
+    """(GPUTexture or None, note) of `image`'s scene-linear pixels; None when it has none or is
+    larger than the GPU's textures."""
+    ptr = image.as_pointer()
+    key = _image_key(image)
+    hit = _textures.get(ptr)
+    if hit is not None and hit[0] == key:
+        return hit[1], hit[2]
+    limit = gpu.capabilities.max_texture_size_get()
+    if max(image.size) > limit:
+        tex, note = None, f"image '{image.name}' is larger than {limit} pixels, the GPU's limit"
+    else:
+        rgb, note = image_pixels(image)
+        tex = None if rgb is None else _upload(rgb)
+    _textures[ptr] = (key, tex, note)
+    return tex, note
+
+
+def slot_textures(sources):
+    """Per AlbedoSource, its texture: the image's for an image, the white one otherwise; None for
+    an image that cannot be read (the caller falls back to the viewport colour)."""
+    return [image_texture(src.image)[0] if src.kind == "IMAGE" else white() for src in sources]
+
+
+def notes(obj):
+    """What the display says about `obj`'s albedo: each slot's fallback, and what reading its
+    images said (once an image was read; before, its colour space only)."""
+    out = []
+    for src in slot_sources(obj):
+        note = src.note
+        if src.kind == "IMAGE":
+            hit = _textures.get(src.image.as_pointer())
+            note = hit[2] if hit is not None and hit[0] == _image_key(src.image) else colour_space_note(src.image)
+        if note and note not in out:
+            out.append(note)
+    return out
