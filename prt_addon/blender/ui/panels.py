@@ -37,6 +37,8 @@ class VIEW3D_PT_prt(bpy.types.Panel):
         mapping = nodes.find_mapping_node(scene.world)
         if nodes.find_environment_node(scene.world) is None:
             col.label(text="World has no Environment Texture", icon="INFO")
+        elif scene.prt_world.stored_order < 1:  # (World Lighting, closed by default, holds its settings)
+            col.operator("prt.project_world", icon="WORLD")
         elif mapping is None:
             col.operator("prt.set_light_rotation", text="Add Lighting Rotation", icon="WORLD")
         else:
@@ -46,6 +48,9 @@ class VIEW3D_PT_prt(bpy.types.Panel):
 class VIEW3D_PT_prt_world(PRTSubPanel, bpy.types.Panel):
     bl_idname = "VIEW3D_PT_prt_world"
     bl_label = "World Lighting"
+    # Closed: used once per world (Project World is also in the root panel until then), and open
+    # it pushed the Display panel and the bake's result below the sidebar's fold.
+    bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
         settings = context.scene.prt_world
