@@ -1,5 +1,5 @@
-"""A modal bake under faults: the object deleted, the file saved, a file loaded, the scene switched,
-a second bake started. Each ends with a clear report, and nothing half-written."""
+"""A modal bake under faults: the object deleted, undo or redo, the file saved, a file loaded, the scene
+switched, a second bake started. Each ends with a clear report, and nothing half-written."""
 
 import types
 
@@ -33,8 +33,8 @@ def _run_out(op, context=None):
     return result
 
 
-@pytest.mark.parametrize("bounces", [0, 2])
-def test_an_object_deleted_during_the_bake_fails_it_and_leaves_the_others(bpy_module, empty_scene, bake_ops, bounces):
+@pytest.mark.parametrize(("bounces", "what"), [(0, "object and mesh"), (2, "object and mesh"), (0, "object")])
+def test_an_object_deleted_during_the_bake_fails_it_at_the_next_event(bpy_module, empty_scene, bake_ops, bounces, what):
     from prt_addon.blender.bake import reports
 
     bpy = bpy_module
@@ -43,12 +43,40 @@ def test_an_object_deleted_during_the_bake_fails_it_and_leaves_the_others(bpy_mo
     op, first = _start(bake_ops, [ground, monkey], bounces=bounces)
     assert first == {"RUNNING_MODAL"}
     bpy.data.objects.remove(monkey)  # (what Delete does; its mesh stays as an orphan)
-    bpy.data.meshes.remove(bpy.data.meshes["Suzanne"])
-    assert _run_out(op) == {"CANCELLED"}
+    if what == "object and mesh":
+        bpy.data.meshes.remove(bpy.data.meshes["Suzanne"])
+    assert op.modal(bpy.context, fake_event("TIMER", "NOTHING")) == {"CANCELLED"}  # (not at the end)
     message = reports.last_report(empty_scene)["message"]
     assert message.startswith("Bake failed") and "'Suzanne' was deleted during the bake" in message
     assert any("nothing was changed" in text for _kind, text in op.reports)
     assert _attr_bytes(ground.data) == before
+    assert all(not t.is_alive() for t in op._bake._pool._threads)
+
+
+@pytest.mark.parametrize("handlers", ["undo_pre", "redo_pre"])
+def test_undo_or_redo_during_the_bake_cancels_it(bpy_module, empty_scene, bake_ops, handlers):
+    """Headless Blender has no undo stack (ed.undo's poll fails): the handlers undo and redo run
+    first are called as Blender calls them; real_blender_check.py presses undo in a window."""
+    from prt_addon.blender.bake import reports, runner
+
+    bpy = bpy_module
+    ground, monkey = _monkey_on_ground(bpy, ground_cuts=30)
+    before = (_attr_bytes(ground.data), _attr_bytes(monkey.data))
+    op, _ = _start(bake_ops, [ground, monkey], bounces=1)
+    runner._running.add(op)
+    try:
+        for handler in list(getattr(bpy.app.handlers, handlers)):
+            handler(bpy.context.scene, None)
+        assert op._bake._cancel and op not in runner._running
+    finally:
+        runner._running.discard(op)
+    assert op.modal(bpy.context, fake_event("MOUSEMOVE", "NOTHING")) == {"CANCELLED"}
+    report = reports.last_report(empty_scene)
+    assert report["cancelled"] and report["message"] == runner.UNDO_CANCEL
+    assert any("undo or redo" in text for _kind, text in op.reports)
+    assert (_attr_bytes(ground.data), _attr_bytes(monkey.data)) == before
+    assert "prt_bake" not in monkey.data
+    assert all(not t.is_alive() for t in op._bake._pool._threads)
 
 
 def test_a_file_saved_during_the_bake_holds_the_meshes_as_they_were(bpy_module, empty_scene, bake_ops, tmp_path):
@@ -77,7 +105,7 @@ def test_a_file_loaded_during_the_bake_cancels_it(bpy_module, empty_scene, bake_
         assert _run_out(op) == {"CANCELLED"}
     finally:
         runner._running.discard(op)
-    assert "cancelled" in reports.last_report(bpy.context.scene)["message"]
+    assert reports.last_report(bpy.context.scene)["message"] == runner.LOAD_CANCEL
     assert all(not t.is_alive() for t in op._bake._pool._threads)
 
 
@@ -116,3 +144,16 @@ def test_a_second_bake_while_one_runs_is_refused_and_the_first_goes_on(bpy_modul
         runner._running.discard(op)
     assert _run_out(op) == {"FINISHED"}
     assert reports.last_report(empty_scene)["ok"]
+
+
+def test_the_bake_handlers_come_and_go_with_the_add_on(bpy_module, addon):
+    from prt_addon.blender.bake import runner
+
+    lists = [getattr(bpy_module.app.handlers, name) for name, _func in runner._HANDLERS]
+    assert all(func in handlers for handlers, (_name, func) in zip(lists, runner._HANDLERS))
+    addon.unregister()
+    try:
+        assert not any(func in handlers for handlers, (_name, func) in zip(lists, runner._HANDLERS))
+    finally:
+        addon.register()
+    assert all(handlers.count(func) == 1 for handlers, (_name, func) in zip(lists, runner._HANDLERS))

@@ -124,3 +124,28 @@ def test_world_panel_reads_auto_threshold_and_display_panel_has_no_view_warning(
     log = draw_panel(panels.VIEW3D_PT_prt_display, empty_scene)
     assert log, "the Display panel drew nothing"
     assert not any("view transform" in str(entry).lower() or "Standard" in str(entry) for entry in log), log
+
+
+def test_the_root_panel_offers_project_world_until_there_is_world_lighting(bpy_module, empty_scene):
+    """World Lighting is closed by default (it pushed the Display panel below the fold): until the
+    world is projected its button is in the root panel, then the lighting's turn."""
+    import types
+
+    from helpers.display_scenes import add_env_world
+
+    from prt_addon.blender.ui import panels
+
+    def root_panel():
+        log = []
+        context = types.SimpleNamespace(scene=empty_scene, space_data=None, region=types.SimpleNamespace(width=260))
+        panels.VIEW3D_PT_prt.draw(types.SimpleNamespace(layout=RecordingLayout(log)), context)
+        return log
+
+    assert "DEFAULT_CLOSED" in panels.VIEW3D_PT_prt_world.bl_options
+    assert "DEFAULT_CLOSED" not in getattr(panels.VIEW3D_PT_prt_display, "bl_options", set())
+    add_env_world(bpy_module, empty_scene)
+    assert ("operator", "prt.project_world", None) in root_panel()
+    empty_scene.prt_world.stored_order = 4
+    log = root_panel()
+    assert ("operator", "prt.set_light_rotation", "Add Lighting Rotation") in log
+    assert not any(entry[:2] == ("operator", "prt.project_world") for entry in log)

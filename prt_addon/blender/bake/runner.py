@@ -1,8 +1,9 @@
 """The time-sliced modal runner of a bake: timer events advance the job, Esc cancels it.
 
 A mixin for the bake operator: invoke() starts the job's steps on a window timer, each TIMER
-event runs at most TIME_SLICE seconds of work, and every way out (finish, Esc, failure, the
-add-on being disabled) removes the timer, ends the progress bar and closes the job's threads.
+event runs at most TIME_SLICE seconds of work, and every way out (finish, Esc, failure, a baked
+object deleted, undo or redo, a file loaded, the add-on being disabled) removes the timer, ends
+the progress bar and closes the job's threads; docs/bake.md, "UI, cancel, undo", says what each does.
 """
 
 import time
@@ -23,7 +24,9 @@ TIMER_GAP = 0.015
 
 _running = set()  # operators with a live timer, removed in unregister_extra()
 
-OUTSIDE_CANCEL = "Bake cancelled (a file was loaded or the add-on disabled): nothing was changed"
+OUTSIDE_CANCEL = "Bake cancelled (the add-on was disabled): nothing was changed"
+LOAD_CANCEL = "Bake cancelled (a file was loaded): nothing was changed"
+UNDO_CANCEL = "Bake cancelled (undo or redo during the bake): nothing was changed, bake again"
 
 
 _NAVIGATION = {
@@ -39,6 +42,22 @@ _NAVIGATION = {
 }
 
 
+def watched(job):
+    """(name, object pointer, mesh pointer) of each baked object: a reference to a deleted ID must
+    not be touched, but its pointer can be looked for among bpy.data's."""
+    return [(p.name, p.obj.as_pointer(), p.mesh.as_pointer()) for p in job.plans]
+
+
+def deleted_name(watched_plans):
+    """The name of a watched object whose object or mesh was deleted since, or None."""
+    objects = {o.as_pointer() for o in bpy.data.objects}
+    meshes = {m.as_pointer() for m in bpy.data.meshes}
+    for name, obj, mesh in watched_plans:
+        if obj not in objects or mesh not in meshes:
+            return name
+    return None
+
+
 class TimeSlicedRunner:
     """Modal half of the bake operator; the operator provides `_job(context)` (a BakeJob or
     None after reporting why) and `execute(context)` (the bake at once, without a window)."""
@@ -52,6 +71,7 @@ class TimeSlicedRunner:
         self._bake = job
         try:
             self._steps = job.steps()
+            self._watched = watched(job)
             wm = context.window_manager
             self._timer = wm.event_timer_add(0.02, window=context.window)
             wm.progress_begin(0, 100)
@@ -89,15 +109,22 @@ class TimeSlicedRunner:
             _store_report(context.scene, BakeReport(cancelled=True, message="Bake cancelled: nothing was changed"))
             self.report({"WARNING"}, "PRT: bake cancelled, nothing was changed")
             return {"CANCELLED"}
-        if self._bake._cancel:  # cancelled from outside (a file loaded, the add-on disabled): write nothing
+        if self._bake._cancel:  # cancelled from outside (undo, a file loaded, the add-on disabled): write nothing
+            message = getattr(self, "_stopped", None) or OUTSIDE_CANCEL
             self._cleanup(context)
-            _store_report(context.scene, BakeReport(cancelled=True, message=OUTSIDE_CANCEL))
-            self.report({"WARNING"}, f"PRT: {OUTSIDE_CANCEL}")
+            _store_report(context.scene, BakeReport(cancelled=True, message=message))
+            self.report({"WARNING"}, f"PRT: {message}")
             return {"CANCELLED"}
         if event.type != "TIMER":
             return {"PASS_THROUGH"} if event.type in _NAVIGATION else {"RUNNING_MODAL"}
         if time.perf_counter() - getattr(self, "_slice_end", float("-inf")) < TIMER_GAP:
             return {"RUNNING_MODAL"}  # (another timer right after our slice: let the UI run)
+        if getattr(self, "_watched", None) is None:
+            self._watched = watched(self._bake)
+        deleted = deleted_name(self._watched)
+        if deleted is not None:
+            self._bake.cancel()
+            return self._fail(context, f"'{deleted}' was deleted during the bake")
         deadline = time.perf_counter() + TIME_SLICE
         try:
             while True:  # at least one chunk per timer event
@@ -130,26 +157,40 @@ class TimeSlicedRunner:
 
 @persistent
 def _on_load_pre(*_args):
-    stop_running()  # (the meshes the bake read belong to the file being closed)
+    stop_running(LOAD_CANCEL)  # (the meshes the bake read belong to the file being closed)
+
+
+@persistent
+def _on_undo_pre(*_args):
+    # Undo reads the file's state back: the meshes the bake would write may be other data by then.
+    stop_running(UNDO_CANCEL)
+
+
+_HANDLERS = (("load_pre", _on_load_pre), ("undo_pre", _on_undo_pre), ("redo_pre", _on_undo_pre))
 
 
 def register_extra():
-    if _on_load_pre not in bpy.app.handlers.load_pre:
-        bpy.app.handlers.load_pre.append(_on_load_pre)
+    for name, func in _HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        if func not in handlers:
+            handlers.append(func)
 
 
 def unregister_extra():
-    while _on_load_pre in bpy.app.handlers.load_pre:
-        bpy.app.handlers.load_pre.remove(_on_load_pre)
-    stop_running()
+    for name, func in _HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        while func in handlers:
+            handlers.remove(func)
+    stop_running(OUTSIDE_CANCEL)
 
 
-def stop_running():
-    """Stop a running modal bake (the add-on is being disabled, or another file loaded): cancel
-    it, remove its timer, end the progress bar and status text, close the worker threads.
-    Nothing is written."""
+def stop_running(message=OUTSIDE_CANCEL):
+    """Stop a running modal bake (undo or redo, another file loaded, the add-on disabled):
+    cancel it, remove its timer, end the progress bar and status text, close the worker threads;
+    its next event reports `message`. Nothing is written."""
     for op in list(_running):
         _running.discard(op)
+        op._stopped = message
         for step in ("cancel", "timer", "steps", "close", "progress"):
             try:
                 if step == "cancel":

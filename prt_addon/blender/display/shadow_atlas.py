@@ -36,26 +36,35 @@ _scratch = {}  # resolution -> Scratch
 class Scratch:
     """One map's worth of framebuffer: R32F colour and a 32-bit depth buffer."""
 
-    __slots__ = ("color", "depth", "framebuffer")
+    __slots__ = ("color", "depth")
 
     def __init__(self, resolution):
         self.color = gpu.types.GPUTexture((resolution, resolution), format="R32F")
         self.depth = gpu.types.GPUTexture((resolution, resolution), format="DEPTH_COMPONENT32F")
-        self.framebuffer = gpu.types.GPUFrameBuffer(depth_slot=self.depth, color_slots=(self.color,))
+
+    @property
+    def framebuffer(self):
+        return gpu.types.GPUFrameBuffer(depth_slot=self.depth, color_slots=(self.color,))  # (see Atlas)
 
 
 class Atlas:
     """`tiles` maps of `resolution` texels in one R32F texture, and per tile the key it holds."""
 
-    __slots__ = ("resolution", "tiles", "cols", "color", "framebuffer", "keys")
+    __slots__ = ("resolution", "tiles", "cols", "color", "keys")
 
     def __init__(self, resolution, tiles):
         self.resolution = resolution
         self.tiles = tiles
         self.cols, rows = atlas_shape(tiles, resolution)
         self.color = gpu.types.GPUTexture((self.cols * resolution, rows * resolution), format="R32F")
-        self.framebuffer = gpu.types.GPUFrameBuffer(color_slots=(self.color,))
         self.keys = [None] * tiles
+
+    @property
+    def framebuffer(self):
+        """A new framebuffer over the texture at each use: a framebuffer binds only in the GPU
+        context of its first bind (each window has its own, and render_view may run in another),
+        while textures are shared between contexts."""
+        return gpu.types.GPUFrameBuffer(color_slots=(self.color,))
 
     def origin(self, tile):
         """(x, y) texel of the tile's first texel in the atlas."""

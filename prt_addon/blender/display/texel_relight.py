@@ -79,12 +79,17 @@ def _program(count, channels=0):
 class Relit:
     """One object's relit radiance: an RGBA32F texture of res x res texels and its framebuffer."""
 
-    __slots__ = ("texture", "framebuffer", "resolution")
+    __slots__ = ("texture", "resolution")
 
     def __init__(self, resolution):
         self.resolution = resolution
         self.texture = gpu.types.GPUTexture((resolution, resolution), format="RGBA32F")
-        self.framebuffer = gpu.types.GPUFrameBuffer(color_slots=(self.texture,))
+
+    @property
+    def framebuffer(self):
+        """A new framebuffer at each use (as shadow_atlas.Atlas's: one binds only in the GPU
+        context of its first bind)."""
+        return gpu.types.GPUFrameBuffer(color_slots=(self.texture,))
 
 
 def relight(relit, transfer, grid, count, light_ubo, channels=0):

@@ -9,6 +9,16 @@ from ..world import light_split, nodes
 from .bake_panel import VIEW3D_PT_prt_bake, VIEW3D_PT_prt_bake_options, VIEW3D_PT_prt_bake_report
 from .sidebar import PRTSubPanel, wrapped_label
 
+SHADING_NAMES = {"WIREFRAME": "Wireframe", "MATERIAL": "Material Preview", "RENDERED": "Rendered"}
+
+
+def shading_note(scene, space):
+    """The root panel's line when the 3D View's shading hides the overlay, else None."""
+    if not scene.prt.show_display or draws_in(space):
+        return None
+    kind = space.shading.type
+    return f"Not drawn in {SHADING_NAMES.get(kind, kind.title())} shading: PRT draws in Solid"
+
 
 class VIEW3D_PT_prt(bpy.types.Panel):
     bl_idname = "VIEW3D_PT_prt"
@@ -20,15 +30,16 @@ class VIEW3D_PT_prt(bpy.types.Panel):
     def draw(self, context):
         layout, scene = self.layout, context.scene
         layout.prop(scene.prt, "show_display")
-        space = context.space_data
-        shading = getattr(getattr(space, "shading", None), "type", "SOLID")
-        if scene.prt.show_display and not draws_in(space):
-            wrapped_label(layout, context, f"Not drawn in {shading.title()} shading: PRT draws in Solid", icon="INFO")
+        note = shading_note(scene, context.space_data)
+        if note:
+            wrapped_label(layout, context, note, icon="INFO")
         # The lighting's turn first: the control a user reaches for after every bake.
         col = layout.column()
         mapping = nodes.find_mapping_node(scene.world)
         if nodes.find_environment_node(scene.world) is None:
             col.label(text="World has no Environment Texture", icon="INFO")
+        elif scene.prt_world.stored_order < 1:  # (World Lighting, closed by default, holds its settings)
+            col.operator("prt.project_world", icon="WORLD")
         elif mapping is None:
             col.operator("prt.set_light_rotation", text="Add Lighting Rotation", icon="WORLD")
         else:
@@ -38,6 +49,9 @@ class VIEW3D_PT_prt(bpy.types.Panel):
 class VIEW3D_PT_prt_world(PRTSubPanel, bpy.types.Panel):
     bl_idname = "VIEW3D_PT_prt_world"
     bl_label = "World Lighting"
+    # Closed: used once per world (Project World is also in the root panel until then), and open
+    # it pushed the Display panel and the bake's result below the sidebar's fold.
+    bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context):
         settings = context.scene.prt_world
