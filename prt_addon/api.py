@@ -108,16 +108,18 @@ def world_lighting(scene: bpy.types.Scene | None = None) -> np.ndarray | None:
     return _world.current_world_coeffs(bpy.context.scene if scene is None else scene)
 
 
-def shade(obj: bpy.types.Object, scene: bpy.types.Scene | None = None) -> np.ndarray:
+def shade(obj: bpy.types.Object, scene: bpy.types.Scene | None = None, side: str = "FRONT") -> np.ndarray:
     """Per-element radiance (elements, 3) for a white surface (albedo excluded):
     max(sum_i L_i t_i, 0) per channel with the scene's lighting rotated into obj's local frame,
     plus for each split light power / pi * max(0, n . s) * V, V the fraction of its disc that
     rays from the element see unoccluded by the scene's visible meshes. One row per vertex for a
     POINT-domain bake (per face corner for CORNER), the quantity Cycles' DIFFUSE bake with
-    pass_filter={'DIRECT'} writes."""
+    pass_filter={'DIRECT'} writes. side="BACK": the back side of an open mesh (one with boundary
+    edges) baked per vertex or corner, what that bake writes for the mesh with its normals
+    flipped; a ValueError for a bake without a back side."""
     from .blender.scene import lighting as _lighting
 
-    return _lighting.shade(obj, scene)
+    return _lighting.shade(obj, scene, side)
 
 
 def render_view(

@@ -232,21 +232,22 @@ def test_a_mirrored_wall_reflects_like_the_same_wall_unmirrored(bpy_module, empt
 
 
 def test_more_than_a_hundred_attributes_are_written_and_cleaned(bpy_module, empty_scene):
-    """Order 11 in colour: 31 x 4 = 124 attributes (prt_t00 .. prt_t123); baking again without
-    bounces leaves the 31 direct ones only."""
+    """Order 11 in colour: 31 x 4 = 124 attributes (prt_t00 .. prt_t123), and the open floor's
+    back side 31 more (prt_tb00 .. prt_tb30); baking again without bounces leaves the 31 direct
+    ones and the back's."""
     from prt_addon.blender.scene import storage
 
     objs = open_room(bpy_module, empty_scene)
     api.project_world(empty_scene, 2)
     api.bake(objs, order=11, samples=16, bounces=1)
     mesh = objs[0].data
-    assert len(storage.transfer_attribute_names(mesh)) == 124
+    assert len(storage.transfer_attribute_names(mesh)) == 124 + 31
     assert api.bake_status(objs[0]) == "fresh"
     assert storage.read_bounce(mesh).shape[1:] == (3, 121)
     snap = storage.snapshot(mesh)
-    assert len(snap["attrs"]) == 124
+    assert len(snap["attrs"]) == 124 + 31
     api.bake(objs, order=11, samples=16)
-    assert len(storage.transfer_attribute_names(mesh)) == 31
+    assert len(storage.transfer_attribute_names(mesh)) == 31 + 31
     assert mesh.attributes.get("prt_t100") is None
 
 

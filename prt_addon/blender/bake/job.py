@@ -23,7 +23,7 @@ from ..scene.occluders import BUILDERS
 from ..scene.parts import scene_parts
 from .bounces import BounceSystem
 from .estimate import estimate, refuse_past_memory
-from .plans import NO_GEOMETRY, check_object
+from .plans import NO_GEOMETRY, back_computation, back_values, bake_record, check_object
 from .settings import BakeError, BakeReport, BakeSettings, blender_threads, fallback_note, resolve_backend
 from .texels import bakes_texels, prepare_texels, texel_computation, texel_image, unwrap_ahead, within_memory
 
@@ -95,6 +95,7 @@ class BakeJob:
                     plan.points = mesh_read.bake_points(mesh_eval, plan.matrix, positions)
                 plan.source = None
                 plan.computation = self._computation(plan)
+                plan.back = back_computation(self, plan)
                 if index == 0:
                     plan.computation.start()
             if self.settings.bounces:
@@ -104,7 +105,7 @@ class BakeJob:
         except BaseException:
             self.close()
             raise
-        self.total_points = sum(p.computation.total for p in self.plans)
+        self.total_points = sum(c.total for p in self.plans for c in p.computations())
         self.bounce_points = self.bounce.extra_points if self.bounce else 0
         self._pass_work = PASS_WORK * self.bounce.n_nodes * self.settings.bounces if self.bounce else 0.0
 
@@ -187,9 +188,8 @@ class BakeJob:
         """Stop the work queued for this job and its threads (idempotent). steps() does it when
         it ends; the operator calls it too, since a generator closed before its first step never
         runs its own clean-up."""
-        for plan in self.plans:
-            if plan.computation is not None:
-                plan.computation.close()
+        for comp in (c for plan in self.plans for c in plan.computations()):
+            comp.close()
         if self.bounce is not None:
             self.bounce.close()
         self._pool.shutdown(wait=True, cancel_futures=True)
@@ -199,7 +199,7 @@ class BakeJob:
 
     @property
     def fraction(self):
-        done = sum(p.computation.done for p in self.plans)
+        done = sum(c.done for p in self.plans for c in p.computations())
         total = self.total_points + self.bounce_points + self._pass_work
         if self.bounce is not None:
             done += sum(c.done for _f, c in self.bounce.node_computations)
@@ -210,6 +210,7 @@ class BakeJob:
     def _computations(self):
         """(label, computation) in the order steps() runs them."""
         named = [(f"Baking '{p.name}' ({i + 1}/{len(self.plans)})", p.computation) for i, p in enumerate(self.plans)]
+        named += [(f"Baking the back of '{p.name}'", p.back) for p in self.plans if p.back is not None]
         if self.bounce is not None:
             named += [("Tracing the other meshes for the bounces", c) for _f, c in self.bounce.node_computations]
         return named
@@ -263,6 +264,8 @@ class BakeJob:
             comp = plan.computation
             stats = comp.stats
             stats_all.add(stats)
+            if plan.back is not None:
+                stats_all.add(plan.back.stats)
             traced = plan.occluder is not None and getattr(plan.occluder, "built", False)
             backend = self.backend if traced and stats.rays_traced else "NONE"
             if backend != "NONE":
@@ -288,29 +291,12 @@ class BakeJob:
             result = comp.result()
             errors.append(result.error.astype(np.float64))
             square_norm_sum += result.square_norm_sum()
-            record = {
-                "version": storage.FORMAT_VERSION,
-                "order": s.order,
-                "samples": s.samples,
-                "direction_set": s.direction_set,
-                "seed": int(s.seed),
-                "shadows": bool(s.shadows),
-                "self_shadow_only": bool(s.self_shadow_only),
-                "backend": backend,
-                "fingerprint": plan.fingerprint,
-                "offset": float(plan.offset),
-                "seconds": float(stats.seconds),
-                "rays_traced": int(stats.rays_traced),
-                "rays_skipped": int(stats.rays_skipped),
-                "error_estimate": result.error_rms(),
-                "error_estimate_relative": result.error_relative(),
-                "bounces": int(s.bounces),
-            }
+            record = bake_record(s, plan, backend, stats, result)
             if plan.texels is not None:
                 texel_extra = (plan.texels.uv_name, plan.texels.created_uvs, bounced)
                 items.append((plan.mesh, values, "TEXEL", record, texel_extra))
             else:
-                items.append((plan.mesh, values, plan.points.domain, record, bounced))
+                items.append((plan.mesh, values, plan.points.domain, record, bounced, back_values(plan)))
         storage.write_bakes(items)
         err = np.concatenate(errors)
         rep.ok = True

@@ -5,9 +5,11 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
+from ...core.sh import frames
 from ...core.trace import raytrace
+from ...core.transfer import back as back_side
 from ...core.transfer.mesh import matrix_to_numpy, transform_points
-from ..scene import mesh_read
+from ..scene import mesh_read, storage
 from ..scene.parts import ray_setup
 
 # Objects that hold no geometry to bake (selected with the meshes, they are left out quietly).
@@ -31,6 +33,55 @@ class _Plan:
     boxes: object = None  # (K, 2, 3) boxes of the other occluders, or None (no culling)
     source: object = None  # (evaluated mesh, its local positions) until the points are read
     texels: object = None  # texels.TexelGeometry of a texel bake
+    back: object = None  # the back side's computation of an open mesh (vertex bakes)
+
+    def computations(self):
+        """The plan's computations: its transfer's, then its back side's if it has one."""
+        return [c for c in (self.computation, self.back) if c is not None]
+
+
+def back_computation(job, plan):
+    """The computation of the back side of an open mesh's vertex or corner bake, or None: the
+    same points and directions for the flipped normals, the origins offset to the back and moved
+    into the faces turned over where surfaces touch (docs/bake.md, "Back faces")."""
+    if plan.texels is not None or not back_side.is_open(plan.own_triangles):
+        return None
+    surface = None
+    if plan.occluder is not None:
+        surface = (plan.own_vertices, back_side.turned_over_triangles(plan.own_triangles))
+    points = back_side.turned_over(plan.points)
+    return job.transfer_computation(points, plan.occluder, plan.offset, plan.self_occludes, plan.boxes, surface)
+
+
+def back_values(plan):
+    """The back transfer per element in the object's local frame, or None (no back side)."""
+    if plan.back is None:
+        return None
+    local = frames.to_local_frame(plan.back.coeffs, plan.matrix[:3, :3])
+    return local if plan.points.scatter is None else local[plan.points.scatter]
+
+
+def bake_record(settings, plan, backend, stats, result):
+    """The record of one plan's bake (docs/storage.md; write_bakes adds its layout)."""
+    s = settings
+    return {
+        "version": storage.FORMAT_VERSION,
+        "order": s.order,
+        "samples": s.samples,
+        "direction_set": s.direction_set,
+        "seed": int(s.seed),
+        "shadows": bool(s.shadows),
+        "self_shadow_only": bool(s.self_shadow_only),
+        "backend": backend,
+        "fingerprint": plan.fingerprint,
+        "offset": float(plan.offset),
+        "seconds": float(stats.seconds),
+        "rays_traced": int(stats.rays_traced),
+        "rays_skipped": int(stats.rays_skipped),
+        "error_estimate": result.error_rms(),
+        "error_estimate_relative": result.error_relative(),
+        "bounces": int(s.bounces),
+    }
 
 
 def _modifier_names(obj):

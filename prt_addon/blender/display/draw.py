@@ -81,7 +81,7 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
             continue
         slot_specular = [principled_specular(slot.material) for slot in obj.material_slots] if sky else []
         specular = any(x is not None for x in slot_specular)
-        shader = get_shader(info.count, layout, info.channels, info.domain, specular, entry.textured)
+        shader = get_shader(info.count, layout, info.channels, info.domain, specular, entry.textured, info.back)
         state = _object_cache.setdefault(obj.as_pointer(), ObjectState())
         mw = np.array(obj.matrix_world, dtype=np.float64)
         size_key = (info.count, info.channels)

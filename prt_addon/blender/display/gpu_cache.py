@@ -9,7 +9,7 @@ import numpy as np
 
 from ...core.transfer.contact import inward_tangents
 from .. import caches
-from ..scene import mesh_read, storage, texel_storage
+from ..scene import back_storage, mesh_read, storage, texel_storage
 from ..scene.materials import element_albedo, element_count
 from .shader import shader_mode, transfer_vec4s
 
@@ -100,12 +100,15 @@ def corner_albedo(mesh, sources):
 
 def read_transfer(mesh, info):
     """(elements, 4 * vec4s) float32: the direct transfer t_0 .. t_{4 count - 1} per element
-    (padding channels 0), then each bounce channel's, padded the same (shader.transfer_vec4s)."""
-    direct = storage.read_transfer(mesh, info, padded=True)
+    (padding channels 0), then each bounce channel's, then the back side's, padded the same
+    (shader.transfer_vec4s)."""
+    parts = [storage.read_transfer(mesh, info, padded=True)]
     bounced = storage.read_bounce(mesh, info, padded=True)
-    if bounced is None:
-        return direct
-    return np.ascontiguousarray(np.concatenate([direct, bounced.reshape(len(bounced), -1)], axis=1))
+    if bounced is not None:
+        parts.append(bounced.reshape(len(bounced), -1))
+    if info.back:
+        parts.append(back_storage.read_back(mesh, info.count, info.order, padded=True))
+    return parts[0] if len(parts) == 1 else np.ascontiguousarray(np.concatenate(parts, axis=1))
 
 
 def deformed_mesh(obj, depsgraph):
@@ -174,7 +177,7 @@ def build_mesh_entry(
     else:
         albedo = element_albedo(mesh, domain, albedo_mode, albedo_attr)
 
-    vec4s = transfer_vec4s(info.count, info.channels)
+    vec4s = transfer_vec4s(info.count, info.channels, info.back)
     mode = shader_mode(vec4s, info.domain, uvs is not None)
     transfer = None if mode == "TEXEL" else read_transfer(mesh, info)
     if per_corner:

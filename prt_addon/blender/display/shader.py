@@ -6,7 +6,8 @@ is a uniform buffer (std140, vec4-padded). The vertex shader computes max(sum_i 
 colour channel times the albedo; the fragment shader writes it through the scene's display
 transform (colour.GLSL: display_transform, one 3D-table lookup; display_mode 0 leaves it linear).
 With sun lights (shadows.py) a variant adds per pixel albedo * sum_l P_l/pi * max(0, n.s_l) * V_l
-(shader_suns.py) before that transform.
+(shader_suns.py) before that transform. An open mesh's back side: a second sum, drawn on the
+faces seen from behind (_back_side).
 """
 
 import gpu
@@ -110,21 +111,64 @@ def _bounce_lines(fetch, k, count, channels):
     )
 
 
-def transfer_vec4s(count, bounce_channels=0):
-    """vec4s per element: the direct transfer's `count`, then `count` per bounce channel."""
-    return count * (1 + bounce_channels)
+def transfer_vec4s(count, bounce_channels=0, back=False):
+    """vec4s per element: the direct transfer's `count`, then `count` per bounce channel, then
+    `count` of the back side's transfer when `back`."""
+    return count * (1 + bounce_channels + bool(back))
 
 
-def get_shader(count, lights=None, bounce_channels=0, domain="POINT", specular=False, textured=False):
+# The back side of an open mesh (docs/display.md, "Back faces"): a fragment whose face looks away
+# from the camera takes radiance_back. gl_FrontFacing follows the winding on screen, which a
+# mirrored object turns over: det(mvp) is negative for an unmirrored one (a GL projection's is).
+_BACK_FUNCTION = """
+bool prt_front()
+{
+  return gl_FrontFacing == (prt_facing > 0.0);
+}
+"""
+
+
+def _back_side(info, vertex, fragment, first, count, mode):
+    """(vertex, fragment) that also sum the back transfer (its vec4s from `first`) into
+    radiance_back and draw it on back faces, with the suns' normal flipped there."""
+    iface = gpu.types.GPUStageInterfaceInfo("prt_back_iface")
+    iface.smooth("VEC3", "radiance_back")
+    iface.flat("FLOAT", "prt_facing")
+    info.vertex_out(iface)
+    if mode == "ATTR":
+        lines = [_dot_line(f"prt_t{first + k}", k, count).replace("r +=", "rb +=", 1) for k in range(count)]
+    else:
+        t = f"texelFetch(transfer_tx, ivec2(col + {first} + k, row), 0)"
+        lines = [
+            f"  for (int k = 0; k < {count}; k++) {{\n"
+            f"    rb += vec3(dot({t}, light.c[k]), dot({t}, light.c[{count} + k]),\n"
+            f"               dot({t}, light.c[{2 * count} + k]));\n"
+            "  }"
+        ]
+    body = "  vec3 rb = vec3(0.0);\n" + "\n".join(lines)
+    body += "\n  radiance_back = max(rb, vec3(0.0)) * prt_albedo.rgb * tint.rgb * scale;"
+    body += "\n  prt_facing = determinant(mvp) < 0.0 ? 1.0 : -1.0;\n"
+    assert "  radiance = max(r," in vertex and "display_transform(radiance" in fragment
+    vertex = vertex.replace("  radiance = max(r,", body + "  radiance = max(r,", 1)
+    fragment = fragment.replace(
+        "display_transform(radiance", "display_transform((prt_front() ? radiance : radiance_back)"
+    )
+    fragment = fragment.replace("local_nrm)));\n", "local_nrm)));\n  n = prt_front() ? n : -n;\n", 1)
+    return vertex, _BACK_FUNCTION + fragment
+
+
+def get_shader(count, lights=None, bounce_channels=0, domain="POINT", specular=False, textured=False, back=False):
     """Compiled shader for `count` transfer vec4s per part, with the suns' shadow views when `lights`
     is a (compact views, wide views) pair (shader_suns.view_layout; None or (0, 0): no suns) and a bounced transfer
     of `bounce_channels` channels (0: none), with the Principled specular when `specular`
-    (shader_specular), with an albedo image per pixel when `textured` (albedo_texture) (cached).
+    (shader_specular), with an albedo image per pixel when `textured` (albedo_texture), with the back
+    side's transfer drawn on back faces when `back` (cached).
     Raises RuntimeError on failure."""
-    total = transfer_vec4s(count, bounce_channels)
+    back = bool(back) and domain != "TEXEL"
+    total = transfer_vec4s(count, bounce_channels, back)
     mode = shader_mode(total, domain, textured)
     lights = tuple(lights) if lights and any(lights) else None
-    key = (mode, count, lights, bounce_channels, bool(specular), bool(textured))
+    key = (mode, count, lights, bounce_channels, bool(specular), bool(textured), back)
     shader = _shaders.get(key)
     if shader is not None:
         return shader
@@ -195,6 +239,8 @@ def get_shader(count, lights=None, bounce_channels=0, domain="POINT", specular=F
         iface.smooth("VEC3", "radiance")
         info.vertex_out(iface)
         vertex, fragment = _VERTEX_COMMON % body, _FRAGMENT
+    if back:
+        vertex, fragment = _back_side(info, vertex, fragment, count * (1 + bounce_channels), count, mode)
     if mode == "TEXEL":
         fragment = _texel_fragment(fragment, count)
     if textured:

@@ -6,6 +6,7 @@ import hashlib
 import numpy as np
 
 from ...core.lights import visibility as light_visibility
+from ...core.transfer.back import turned_over, turned_over_triangles
 from ...core.transfer.contact import inward_tangents
 from ...core.transfer.mesh import concatenate_parts, matrix_to_numpy, transform_points, vertex_points
 from .. import caches
@@ -40,11 +41,12 @@ def clear_cache():
     _occluders.clear()
 
 
-def element_points(obj_eval, domain):
+def element_points(obj_eval, domain, side="FRONT"):
     """(world points, world unit normals, offset, tangents) per element of the stored bake's
     domain: one row per vertex (POINT) or per face corner (CORNER), read as the bake reads them;
     tangents are the bake's contact tangents (core.transfer.contact.inward_tangents), which move
-    the ray origins into the element's own surface where another surface touches it."""
+    the ray origins into the element's own surface where another surface touches it. side
+    "BACK": the normals flipped and the tangents of the faces turned over (the back side's bake)."""
     mesh = obj_eval.data
     matrix = matrix_to_numpy(obj_eval.matrix_world)
     positions = mesh_read.read_positions(mesh)
@@ -53,6 +55,8 @@ def element_points(obj_eval, domain):
         points = vertex_points(matrix, positions, mesh_read.read_vertex_normals(mesh))
     world = transform_points(matrix, positions)
     triangles = mesh_read.read_triangles(mesh, positions)
+    if side == "BACK":
+        points, triangles = turned_over(points), turned_over_triangles(triangles)
     tangents = inward_tangents(points.positions, points.normals, world, triangles, points.vertex)
     if domain == "CORNER":
         rows = mesh_read.read_corner_verts(mesh) if points.scatter is None else points.scatter
@@ -79,11 +83,11 @@ def scene_occluder(depsgraph, obj_eval=None):
     return None if len(triangles) == 0 else _occluder(kind, vertices, triangles)
 
 
-def light_radiance(obj, depsgraph, lights, info, rays_per_light=RAYS_PER_LIGHT):
-    """(elements, 3) radiance of the lights on obj, white albedo, shadowed as its bake was:
+def light_radiance(obj, depsgraph, lights, info, rays_per_light=RAYS_PER_LIGHT, side="FRONT"):
+    """(elements, 3) radiance of the lights on obj's `side`, white albedo, shadowed as its bake was:
     by every visible mesh, by the object alone (self-shadow only), or not at all (shadows off)."""
     obj_eval = obj.evaluated_get(depsgraph)
-    points, normals, offset, tangents = element_points(obj_eval, info.domain)
+    points, normals, offset, tangents = element_points(obj_eval, info.domain, side)
     if not lights:
         return np.zeros((len(points), 3))
     record = getattr(info, "record", None)

@@ -13,7 +13,7 @@ from ...core.sh import basis as _sh, frames as _frames, rotation as _rotation
 from .. import caches
 from ..display.redraw import tag_redraw
 from ..world import nodes as _nodes, projection as _world
-from . import storage, texel_shading
+from . import back_storage, storage, texel_shading
 from .light_shading import light_radiance
 
 _light_overrides = {}  # scene key -> (n*n, 3) float64 unrotated light
@@ -117,19 +117,31 @@ def bounce_light_extra(obj, lights, order):
     return light_in_local_frame(lights_sh(lights, order), obj.matrix_world, order)
 
 
-def shade(obj, scene=None):
+SIDES = ("FRONT", "BACK")
+
+
+def shade(obj, scene=None, side="FRONT"):
     """Per-element radiance (elements, 3) float64 for a white surface: max(sum_i L_i t_i, 0) per
     channel, L in obj's local frame (what the display shader computes; with bounces,
     t = direct + bounced, the bounced part also lit by the split lights' SH), plus each split light's
     power / pi * max(0, n . s) * V with V traced against the scene's meshes
     (light_shading.light_radiance). One row per vertex for a POINT bake, per face corner for a
-    CORNER bake; for a TEXEL bake (res, res, 3), one value per texel (texel_shading)."""
+    CORNER bake; for a TEXEL bake (res, res, 3), one value per texel (texel_shading). side
+    "BACK": the back side of an open mesh's vertex bake (its own transfer, the lights' cosine on
+    the flipped normal; direct light only, docs/bake.md "Back faces")."""
+    if side not in SIDES:
+        raise ValueError(f"side must be 'FRONT' or 'BACK', not {side!r}")
     scene = scene if scene is not None else bpy.context.scene
     depsgraph = bpy.context.evaluated_depsgraph_get()  # flushes pending edits into matrix_world
     mesh = obj.data
     info, problem = storage.usable_bake(mesh)
     if info is None or problem:  # not baked, or stale (topology changed since the bake)
         raise ValueError(f"'{obj.name}': {problem}: bake it (PRT tab > Bake Transfer)")
+    if side == "BACK" and not info.back:
+        raise ValueError(
+            f"'{obj.name}' has no back-side transfer: only open meshes (with boundary edges) baked "
+            "per vertex or corner have one; a closed mesh's back faces are never seen"
+        )
     light = object_light(obj, scene, info.order)
     if light is None:
         raise ValueError("the scene has no PRT lighting (project the world first)")
@@ -138,6 +150,10 @@ def shade(obj, scene=None):
         bounce_light = light + bounce_light_extra(obj, lights, info.order) if info.channels else None
         radiance = texel_shading.sky_radiance(info, light, bounce_light)
         return radiance + texel_shading.light_radiance(obj, depsgraph, lights, info) if lights else radiance
+    if side == "BACK":
+        transfer = back_storage.read_back(mesh, info.count, info.order).astype(np.float64)
+        radiance = np.maximum(transfer @ light, 0.0)
+        return radiance + light_radiance(obj, depsgraph, lights, info, side="BACK") if lights else radiance
     transfer = storage.read_transfer(mesh, info, padded=True).astype(np.float64)
     n2 = info.order * info.order
     radiance = transfer[:, :n2] @ light

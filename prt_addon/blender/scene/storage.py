@@ -17,20 +17,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import caches
-from . import texel_storage
+from . import back_storage, texel_storage
 from .mesh_read import topology_fingerprint
 
 PREFIX = "prt_t"
-
-
 RECORD = "prt_bake"
-
-
 # 2: bounce attributes; 3: texel bakes; 4: texel bakes' bounce tiles (texel_storage.record_fields).
 FORMAT_VERSION, ATTRIBUTE_BOUNCE_VERSION = 4, 3  # (bakes with bounce attributes: 3, others: 1)
-
-
-_ATTR_RE = re.compile(r"^prt_t\d{2,}$")  # prt_t00 .. prt_t99, then prt_t100 .. (bounced bakes)
+# prt_t00 .. prt_t99, then prt_t100 .. (bounced bakes); prt_tb00 .. the back side (back_storage).
+_ATTR_RE = re.compile(r"^prt_tb?\d{2,}$")
 
 
 def attribute_name(k):
@@ -157,7 +152,7 @@ def write_transfer(mesh, values, domain, record, bounce=None):
         channel[:, width:] = 0.0
         mesh.attributes[name].data.foreach_set("color", channel.reshape(-1))
     for name in transfer_attribute_names(mesh):
-        if int(name[len(PREFIX) :]) >= count:
+        if not back_storage.is_back_attribute(name) and int(name[len(PREFIX) :]) >= count:
             _remove(mesh, name)
     channels = len(parts) - 1
     version = ATTRIBUTE_BOUNCE_VERSION if channels else 1
@@ -167,15 +162,15 @@ def write_transfer(mesh, values, domain, record, bounce=None):
 
 
 def write_bakes(items):
-    """items: [(mesh, values, domain, record[, bounce])], for a TEXEL domain [(mesh, image,
-    "TEXEL", record, (uv name, created UVs or None[, bounced (res, res, C, n*n) or None]))].
-    All are written, or none (state restored: attributes, records, the UV maps made; the
-    previous images are replaced only at the end)."""
+    """items: [(mesh, values, domain, record[, bounce[, back (E, n*n) or None]])], for a TEXEL
+    domain [(mesh, image, "TEXEL", record, (uv name, created UVs or None[, bounced (res, res, C,
+    n*n) or None]))]. All are written, or none (state restored: attributes, records, the UV maps
+    made; the previous images are replaced only at the end)."""
     snapshots = [(item[0], snapshot(item[0])) for item in items]
     old_images = {item[0].name: _record_image(snap) for item, (_m, snap) in zip(items, snapshots)}
     staged, made_uvs = [], []
     try:
-        for mesh, values, domain, record, extra in (tuple(item) + (None,) * (5 - len(item)) for item in items):
+        for mesh, values, domain, record, extra, back in (tuple(item) + (None,) * (6 - len(item)) for item in items):
             if domain == "TEXEL":
                 uv_name, created, bounce = tuple(extra) + (None,) * (3 - len(extra))
                 if created is not None and uv_name not in mesh.uv_layers:
@@ -183,6 +178,7 @@ def write_bakes(items):
                 write_texels(mesh, values, record, uv_name, created, staged, bounce)
             else:
                 write_transfer(mesh, values, domain, record, extra)
+                back_storage.write_back(mesh, back, domain)
     except BaseException:
         for image in (image for _mesh, image in staged):
             texel_storage.discard_image(image)
@@ -218,6 +214,7 @@ class BakeRecord:
     resolution: int = 0  # texels per side (TEXEL domain)
     image: object = None  # the transfer image (TEXEL domain)
     uv_map: str = ""  # the UV map baked into (TEXEL domain)
+    back: bool = False  # whether the back side has its own transfer (back_storage)
 
 
 def read_bake_record(mesh):
@@ -251,7 +248,9 @@ def read_bake_record(mesh):
         attr = mesh.attributes.get(attribute_name(k))
         if attr is None or attr.domain != domain or attr.data_type != "FLOAT_COLOR":
             return None, f"attribute {attribute_name(k)} is missing or changed"
-    return BakeRecord(order, count, domain, record, channels), ""
+    problem = back_storage.missing_back(mesh, record, count, domain)
+    back = bool(int(record.get("back", 0)))
+    return (None, problem) if problem else (BakeRecord(order, count, domain, record, channels, back=back), "")
 
 
 DOMAINS = ("POINT", "CORNER", "TEXEL")
