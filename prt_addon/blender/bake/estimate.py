@@ -23,7 +23,7 @@ SECONDS_PER_RAY = 7.0e-8
 SECONDS_PER_RAY_COEFF = 3.0e-10
 SECONDS_FIXED = 0.03  # reading the scene, building the BVH, writing
 SECONDS_PER_TEXEL = 4.0e-6  # rasterising a lightmap, its gutter, seams and image tiles (one thread)
-BOUNCE_TIME = 1.0  # the bounces' extra time as a share of the direct bake's (measured 0.3 to 2.1)
+BOUNCE_TIME = 1.0  # the bounces' extra time as a share of the direct bake's (measured 0.4 to 1.2)
 COVERED_SHARE = 0.65  # the share of a lightmap's texels that its charts cover (time only)
 ADAPTIVE_SHARE = 0.5  # the share of the covered texels adaptive sampling traces (measured 0.27 to 0.71)
 # Bytes per element: positions, normals, indices and the stored attributes' fixed part; then per
