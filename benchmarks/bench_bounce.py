@@ -4,6 +4,7 @@ repository root:
     .venv/bin/python benchmarks/bench_bounce.py            # bench_bake's scene, then 1M-vertex memory
     .venv/bin/python benchmarks/bench_bounce.py --quick    # smaller scene, smaller memory grid
     .venv/bin/python benchmarks/bench_bounce.py --no-memory --repeats 15    # the speed part only
+    .venv/bin/python benchmarks/bench_bounce.py --room --no-memory    # an enclosed room instead
 
 Prints, on bench_bake.py's scene (subdivided Suzanne on a ground grid), medians [min - max] of
 interleaved repeats of the whole api.bake call with bounces = 0, 1 and 3 and their ratios to the
@@ -11,6 +12,9 @@ direct bake (target: 3 bounces at most 1.5 times the direct bake), the time of t
 two queries on all of the bake's own rays (Embree's OCCLUDED, which a direct bake uses, and
 INTERSECT for the nearest triangle, which a bounced bake asks on half of them), and the peak
 memory (VmHWM) of a direct and a 3-bounce bake of a 1M-vertex wavy grid in fresh processes.
+With --room the scene is an enclosed room instead (a closed box of inward-facing grids with a
+skylight, the same Suzanne inside): most rays hit a wall, so every
+bounce pass has about as many entries as there are hit-traced rays.
 """
 
 import argparse
@@ -25,6 +29,7 @@ sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
 
 
+import bpy
 from bench_bake import build_scene, child_line, same_rays, spread, vm_kib, wavy_grid
 
 import prt_addon
@@ -43,11 +48,46 @@ def query_seconds(occ, batches):
     return times
 
 
+def enclosed_room(subdiv, cuts):
+    """A 6 x 6 x 4 m box of inward-facing cuts x cuts grids (floor, four walls, a ceiling with a
+    1 x 1 m skylight) around bench_bake's Suzanne (the bake's time does not depend on the light)."""
+    import bmesh  # (only once bpy is imported)
+
+    objects = build_scene(subdiv, 2)
+    ground = objects.pop()
+    bpy.data.objects.remove(ground)
+    faces = {
+        "floor": ((0, 0, 0), (0, 0, 0)),
+        "ceiling": ((0, 0, 4), (np.pi, 0, 0)),
+        "wall_x0": ((-3, 0, 2), (0, np.pi / 2, 0)),
+        "wall_x1": ((3, 0, 2), (0, -np.pi / 2, 0)),
+        "wall_y0": ((0, -3, 2), (-np.pi / 2, 0, 0)),
+        "wall_y1": ((0, 3, 2), (np.pi / 2, 0, 0)),
+    }
+    for name, (location, rotation) in faces.items():
+        bpy.ops.mesh.primitive_grid_add(
+            x_subdivisions=cuts, y_subdivisions=cuts, size=6, location=location, rotation=rotation
+        )
+        obj = bpy.context.object
+        obj.name = name
+        if name == "ceiling":
+            bm = bmesh.new()
+            bm.from_mesh(obj.data)
+            hole = [f for f in bm.faces if abs(f.calc_center_median().x) < 0.5 and abs(f.calc_center_median().y) < 0.5]
+            bmesh.ops.delete(bm, geom=hole, context="FACES")
+            bm.to_mesh(obj.data)
+            bm.free()
+        objects.append(obj)
+    return objects
+
+
 def speed(args):
-    objects = build_scene(args.subdiv, args.grid)
+    objects = enclosed_room(args.subdiv, args.cuts) if args.room else build_scene(args.subdiv, args.grid)
     points = sum(len(o.data.vertices) for o in objects)
-    print(f"scene: {points:,} vertices, order {args.order}, {args.samples} directions, {args.threads} threads")
-    api.bake(objects, order=args.order, samples=args.samples, threads=args.threads)  # warm-up
+    kind = "enclosed room" if args.room else "Suzanne on a ground grid"
+    print(f"scene: {kind}, {points:,} vertices, order {args.order}, {args.samples} directions, {args.threads} threads")
+    warm = api.bake(objects, order=args.order, samples=args.samples, threads=args.threads)
+    print(f"  rays that hit a surface: {warm.rays_blocked / max(1, warm.rays_traced):.2f} of those traced")
     runs = {b: [] for b in (0, 1, 3)}
     reports = {}
     for _ in range(args.repeats):
@@ -112,6 +152,8 @@ def main():
     parser.add_argument("--memory-child", type=int, default=-1)
     parser.add_argument("--side", type=int, default=1000)
     parser.add_argument("--no-memory", action="store_true", help="skip the 1M-vertex memory runs")
+    parser.add_argument("--room", action="store_true", help="an enclosed room: most rays hit a wall")
+    parser.add_argument("--cuts", type=int, default=60, help="--room: each wall's grid subdivisions")
     args = parser.parse_args()
     if args.memory_child >= 0:
         memory_child(args.memory_child, args.side)

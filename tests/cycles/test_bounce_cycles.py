@@ -1,4 +1,4 @@
-"""Interreflected bakes against Cycles: an open room under a uniform world and under city.exr."""
+"""Interreflected bakes against Cycles: an open room under a uniform world, city.exr and courtyard.exr."""
 
 import numpy as np
 import pytest
@@ -71,3 +71,25 @@ def test_uniform_world_room_matches_cycles_closely(bpy_module, empty_scene):
         # A uniform world is exact at order 2: what is left is sampling (PRT 512 directions,
         # Cycles 128 samples) and the hit interpolation; measured 0.3 to 2 %.
         np.testing.assert_allclose(ours, theirs, rtol=0.04, err_msg=obj.name)
+
+
+def test_courtyard_room_indirect_part_matches_cycles_at_1_and_3_bounces(bpy_module, empty_scene):
+    """The bounced part (DIRECT + INDIRECT minus DIRECT, both from Cycles) of the open room under
+    courtyard.exr at order 8. Measured per object and channel: within 3.4 % of the mean of two
+    Cycles seeds at 1 and 3 bounces; Cycles' own seed-to-seed difference up to 4.2 % (256
+    samples), so one seed carries about 3 %: 8 % plus that. (Order 4 is 13 to 19 % low on the
+    white wall's green and blue: the band limit of the direct light it gathers.)"""
+    bpy = bpy_module
+    objs = open_room(bpy, empty_scene, hdri="courtyard")
+    api.project_world(empty_scene, 8)
+    api.bake(objs, order=8, samples=512)
+    direct = {o.name: api.shade(o, empty_scene) for o in objs}
+    c_direct = cycles_vertex_bake(bpy, empty_scene, objs, 256, bounces=0)
+    for bounces in (1, 3):
+        api.bake(objs, order=8, samples=512, bounces=bounces)
+        bounced = {o.name: api.shade(o, empty_scene) for o in objs}
+        c_total = cycles_vertex_bake(bpy, empty_scene, objs, 256, ("DIRECT", "INDIRECT"), bounces)
+        for obj in objs:
+            ours = (bounced[obj.name] - direct[obj.name]).mean(axis=0)
+            theirs = (c_total[obj.name] - c_direct[obj.name]).mean(axis=0)
+            np.testing.assert_allclose(ours, theirs, rtol=0.11, err_msg=f"{obj.name}, {bounces} bounce(s)")

@@ -11,26 +11,36 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
+from ...core.transfer import quadrature as transfer
 from .. import caches
 from ..scene import mesh_read
 from .settings import SAMPLES_PER_TEXEL, BakeError, texel_memory
 
 # Seconds per candidate ray (element x direction) on one thread: a base, and a part per SH
-# coefficient that the quadrature accumulates (fitted; docs/bake.md, "Estimates").
-SECONDS_PER_RAY = 8.4e-8
-SECONDS_PER_RAY_COEFF = 1.2e-9
-SECONDS_FIXED = 0.15  # reading the scene, building the BVH, writing
-BOUNCE_TIME = 1.0  # any bounces' extra time as a share of the direct bake (measured 0.34 to 0.64, 2 in a closed room)
+# coefficient that the quadrature accumulates (fitted on a quiet 2-core machine; docs/bake.md,
+# "Estimates").
+SECONDS_PER_RAY = 7.0e-8
+SECONDS_PER_RAY_COEFF = 3.0e-10
+SECONDS_FIXED = 0.03  # reading the scene, building the BVH, writing
+SECONDS_PER_TEXEL = 4.0e-6  # rasterising a lightmap, its gutter, seams and image tiles (one thread)
+BOUNCE_TIME = 1.0  # the bounces' extra time as a share of the direct bake's (measured 0.4 to 1.2)
+COVERED_SHARE = 0.65  # the share of a lightmap's texels that its charts cover (time only)
+ADAPTIVE_SHARE = 0.5  # the share of the covered texels adaptive sampling traces (measured 0.27 to 0.71)
 # Bytes per element: positions, normals, indices and the stored attributes' fixed part; then per
 # coefficient the float32 transfer, its local-frame copy and the colour attributes written.
 BYTES_PER_ELEMENT = 120
 BYTES_PER_COEFF = 11
+WORK_BYTES = transfer.CHUNK_RAYS * transfer.RAY_BYTES  # the slices' ray buffers in flight
 # Bounces: per node and coefficient the direct, running and total bounced transfer (three
-# channels, float32), and per hit 4 + 4 x 3 bytes, as if every ray above the surface hit (an
-# upper bound: a closed room; an open scene takes a few times less).
+# channels, float32), and per hit 4 + 4 x 3 bytes. A point keeps the hits of the half of the
+# directions that ask for the nearest triangle and, of those, only the ones above its surface:
+# at most about a quarter of its candidate rays (a closed room; an open scene far fewer).
 BYTES_PER_NODE_COEFF = 4 * 3 * 3
 BYTES_PER_HIT = 16
-HIT_SHARE = 0.5
+HIT_SHARE = 0.3
+# A texel bake's bounced transfer goes the direct one's way to the image (gutter, seams, tiles),
+# once per colour channel (at most 3).
+TEXEL_BOUNCE_CHANNELS = 3
 BYTES_PER_TRIANGLE = 120  # the occluder's copy and Embree's BVH
 USABLE_SHARE = 0.9  # the share of the available memory a bake may take
 
@@ -39,7 +49,7 @@ USABLE_SHARE = 0.9  # the share of the available memory a bake may take
 class BakeEstimate:
     elements: int = 0  # points the bake computes (vertices; corners of flat-shaded meshes; texel samples)
     bounce_elements: int = 0  # points of other visible meshes that the bounces trace too
-    rays: int = 0  # candidate rays, elements x directions (the bake skips those below the surface)
+    rays: int = 0  # candidate rays: elements (texels for a texel bake) x directions; below-surface ones are skipped
     seconds: float = 0.0
     bytes: int = 0  # peak memory above the scene's (with bounces, at most: every ray hitting)
     available: int = 0  # the machine's available memory now (MemAvailable)
@@ -150,18 +160,31 @@ def estimate(objects, settings, scene=None, threads=None):
                 triangles += len(obj.data.loops) - 2 * len(obj.data.polygons)  # (n - 2 per n-gon)
                 if settings.bounces and obj.name not in names:
                     bounce_elements += mesh_elements(obj.data)
-    rays = elements * settings.samples
-    all_rays = (elements + bounce_elements) * settings.samples
-    seconds = SECONDS_FIXED + all_rays * (SECONDS_PER_RAY + SECONDS_PER_RAY_COEFF * order2) / threads
-    nbytes = elements * (BYTES_PER_ELEMENT + BYTES_PER_COEFF * order2) + triangles * BYTES_PER_TRIANGLE
+    # A texel's S samples share the direction set (each traces N / S of it): N rays per texel.
+    texels = elements // SAMPLES_PER_TEXEL if texel else 0
+    rays = texels * settings.samples if texel else elements * settings.samples
+    all_rays = rays + bounce_elements * settings.samples
+    traced = all_rays
+    if texel:  # (covered texels only; adaptive sampling is off with bounces)
+        share = COVERED_SHARE * (ADAPTIVE_SHARE if settings.adaptive and not settings.bounces else 1.0)
+        traced = share * rays + bounce_elements * settings.samples
+    per_ray = SECONDS_PER_RAY + SECONDS_PER_RAY_COEFF * order2
+    seconds = SECONDS_FIXED + (traced * per_ray + texels * SECONDS_PER_TEXEL) / threads
+    nbytes = elements * (BYTES_PER_ELEMENT + BYTES_PER_COEFF * order2)
     if texel:
         nbytes = sum(
             texel_memory(settings.resolution or int(np.sqrt(c / SAMPLES_PER_TEXEL)), settings.order) for c in counts
         )
+    nbytes += triangles * BYTES_PER_TRIANGLE + WORK_BYTES
     if settings.bounces:
-        seconds *= 1.0 + BOUNCE_TIME
-        nodes = elements + bounce_elements
+        seconds += BOUNCE_TIME * (seconds - SECONDS_FIXED)
+        nodes = (texels or elements) + bounce_elements
         nbytes += nodes * order2 * BYTES_PER_NODE_COEFF + int(HIT_SHARE * all_rays) * BYTES_PER_HIT
+        if texel:
+            nbytes += TEXEL_BOUNCE_CHANNELS * sum(
+                texel_memory(settings.resolution or int(np.sqrt(c / SAMPLES_PER_TEXEL)), settings.order, 0)
+                for c in counts
+            )
     return BakeEstimate(elements, bounce_elements, rays, float(seconds), int(nbytes), available_memory(), threads)
 
 

@@ -19,6 +19,7 @@ same in the matrix (plus its padding).
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
 from concurrent.futures import Executor
 from typing import Any
@@ -61,6 +62,7 @@ class Transport:
         self.channels = int(channels)
         self.entries = 0
         self.slices = []  # (row ids (S,), nodes (S, K) int32, weights (S, K, C) float32)
+        self._work = threading.local()  # each thread's gather buffer
         if not parts:
             return
         spans = [_row_span(p[0]) for p in parts]
@@ -102,7 +104,8 @@ class Transport:
     def _apply_slice(self, x, out, ids, nodes, weights):
         step = max(1, GATHER_VALUES // max(1, nodes.shape[1] * x.shape[1] * x.shape[2]))
         for a in range(0, len(ids), step):
-            gathered = np.take(x, nodes[a : a + step], axis=0)  # (S, K, Cx, nn)
+            index = nodes[a : a + step]
+            gathered = np.take(x, index, axis=0, out=self._gather_buffer(index.shape + x.shape[1:]))  # (S, K, Cx, nn)
             w = weights[a : a + step]
             # Batched matmuls (S, C, 1, K) @ (S, C, K, nn): 2.5 to 7 times faster than einsum.
             if gathered.shape[2] == w.shape[2]:
@@ -111,6 +114,15 @@ class Transport:
                 ]
             else:  # Cx = 1: the same x for every channel
                 out[ids[a : a + step]] = np.matmul(w.transpose(0, 2, 1), gathered[:, :, 0])
+
+    def _gather_buffer(self, shape):
+        """A float32 array of `shape` reused by this thread's products (a fresh one per chunk
+        cost more in page faults than the gather itself)."""
+        size = int(np.prod(shape))
+        have = getattr(self._work, "gather", None)
+        if have is None or len(have) < size:
+            have = self._work.gather = np.empty(size, np.float32)
+        return have[:size].reshape(shape)
 
     def apply(self, x: np.ndarray, pool: Executor | None = None) -> np.ndarray:
         """A x for x (nodes, 1 or C, nn) float32: (n_rows, C, nn) float32."""

@@ -14,22 +14,51 @@ the rows as runs, one per point and block).
 from __future__ import annotations
 
 import functools
+import threading
 
 import numpy as np
 import numpy.typing as npt
 
 
-def _hash_unit(rows: np.ndarray, kdir: np.ndarray, seed: int) -> np.ndarray:
-    """Uniform [0, 1] float32 per (row, direction): murmur3's 32-bit finaliser of a mix."""
+def _hash_unit(rows: np.ndarray, kdir: np.ndarray, seed: int, work: _Work | None = None) -> np.ndarray:
+    """Uniform [0, 1] float32 per (row, direction): murmur3's 32-bit finaliser of a mix (in
+    `work`'s buffers when given: valid until its next use)."""
+    m = len(rows)
+    h = np.empty(m, np.uint32) if work is None else work.get("hash", m, np.uint32)
+    k = np.empty(m, np.uint32) if work is None else work.get("hash_k", m, np.uint32)
+    np.copyto(h, rows, casting="unsafe")  # (as astype(np.uint32): the low 32 bits)
+    np.copyto(k, kdir, casting="unsafe")
     with np.errstate(over="ignore"):
-        h = rows.astype(np.uint32) * np.uint32(0x9E3779B1)
-        h ^= kdir.astype(np.uint32) * np.uint32(0x85EBCA77) + np.uint32(seed & 0xFFFFFFFF)
-        h ^= h >> np.uint32(16)
+        h *= np.uint32(0x9E3779B1)
+        k *= np.uint32(0x85EBCA77)
+        k += np.uint32(seed & 0xFFFFFFFF)
+        h ^= k
+        np.right_shift(h, np.uint32(16), out=k)
+        h ^= k
         h *= np.uint32(0x85EBCA6B)
-        h ^= h >> np.uint32(13)
+        np.right_shift(h, np.uint32(13), out=k)
+        h ^= k
         h *= np.uint32(0xC2B2AE35)
-        h ^= h >> np.uint32(16)
-    return np.multiply(h, np.float32(1.0 / 4294967296.0), dtype=np.float32, casting="unsafe")
+        np.right_shift(h, np.uint32(16), out=k)
+        h ^= k
+    out = np.empty(m, np.float32) if work is None else work.get("unit", m, np.float32)
+    return np.multiply(h, np.float32(1.0 / 4294967296.0), out=out, dtype=np.float32, casting="unsafe")
+
+
+class _Work(threading.local):
+    """Per-thread scratch arrays of the sink, reused from call to call: fresh multi-megabyte
+    temporaries per slice cost more in page faults than the arithmetic on them (measured:
+    docs/bake.md, "Bounces in an enclosed room")."""
+
+    def __init__(self) -> None:
+        self.arrays: dict[str, np.ndarray] = {}
+
+    def get(self, name: str, m: int, dtype, rows: int = 0) -> np.ndarray:
+        """An (m,) or (rows, m) array of dtype, uninitialised."""
+        have = self.arrays.get(name)
+        if have is None or have.shape[-1] < m or have.dtype != dtype:
+            have = self.arrays[name] = np.empty((rows, max(m, 1024)) if rows else max(m, 1024), dtype)
+        return have[..., :m] if rows else have[:m]
 
 
 class HitTransport:
@@ -80,6 +109,7 @@ class HitTransport:
         # None, or a callable (prims, u det, v det, det) -> None | (which, nodes) giving some hits
         # their nodes by another rule (core.transfer.texel_hits: the texels of texel-baked meshes).
         self.remap = None
+        self._work = _Work()
 
     def __call__(
         self,
@@ -95,33 +125,38 @@ class HitTransport:
         with max(0, n . w) `cosines[j]`, hit triangle `prims[j]` first."""
         prims = np.asarray(prims)
         rows = np.asarray(rows)
-        ud, vd, det = hit_barycentrics(np.take(self.corners, prims, axis=0), origins, dirs)
+        work, m = self._work, len(prims)
+        corners = np.take(self.corners, prims, axis=0, out=work.get("corners", 9 * m, np.float32).reshape(m, 9))
+        ud, vd, det = hit_barycentrics(corners, origins, dirs, work)
         remapped = None if self.remap is None else self.remap(prims, ud, vd, det)  # (before ud, vd change)
-        xd = _hash_unit(rows, np.asarray(kdir), self.seed)
+        xd = _hash_unit(rows, np.asarray(kdir), self.seed, work)
         # Corner 1 where xi < u, 2 where u <= xi < u + v, else 0; compared times det (> 0 on the
         # front faces, the only hits kept), which saves the division.
         xd *= det
-        first = xd < ud
+        first = np.less(xd, ud, out=work.get("first", m, np.bool_))
         vd += ud
-        second = xd < vd
+        second = np.less(xd, vd, out=work.get("second", m, np.bool_))
         second |= first  # (u + v < u only off the triangle, by rounding: corner 1 then)
-        index = prims * np.int32(3)
+        index = np.multiply(prims, np.int32(3), out=work.get("index", m, prims.dtype))
         index += second
         index += second
         index -= first
         nodes = self._corner_nodes[index]
-        keep = det > 0.0  # det = -w . ((b - a) x (c - a)): the ray meets a front face
+        keep = np.greater(det, 0.0, out=work.get("keep", m, np.bool_))  # det = -w . ((b - a) x (c - a)): a front face
         if remapped is not None:
             nodes[remapped[0]] = remapped[1]
             keep &= nodes >= 0
         elif not self._all_nodes:
             keep &= nodes >= 0
-        weights = np.take(self._weights, prims[keep], axis=0)
-        weights *= np.asarray(cosines)[keep].astype(np.float32)[:, None]
-        rows = rows[keep].astype(np.int32)
+        cosines = np.asarray(cosines)
+        if not keep.all():
+            prims, cosines, rows, nodes = prims[keep], cosines[keep], rows[keep], nodes[keep]
+        weights = np.take(self._weights, prims, axis=0)
+        weights *= cosines.astype(np.float32)[:, None]
+        rows = rows.astype(np.int32)
         # A block's rays are point-major, so its rows come sorted: kept as runs (4 bytes a hit less).
         runs = RowRuns(rows) if len(rows) < 2 or not np.any(rows[1:] < rows[:-1]) else rows
-        return runs, nodes[keep], weights
+        return runs, nodes, weights
 
 
 class LateSink:
@@ -146,24 +181,28 @@ class LateSink:
         return self.sink(*hits)
 
 
-def hit_barycentrics(corners: np.ndarray, origins: npt.ArrayLike, dirs: npt.ArrayLike):
+def hit_barycentrics(corners: np.ndarray, origins: npt.ArrayLike, dirs: npt.ArrayLike, work: _Work | None = None):
     """(u det, v det, det) float32 of rays o + s w meeting triangles with rows (a, e1, e2) of
     `corners` (m, 9), hit = a + u e1 + v e2, by Moller and Trumbore (1997): p = w x e2,
-    q = (o - a) x e1, det = e1 . p, u det = (o - a) . p, v det = w . q.
+    q = (o - a) x e1, det = e1 . p, u det = (o - a) . p, v det = w . q. With `work`, the
+    results are its buffers (valid until its next use in the same thread).
 
     Component-major copies first: numpy's arithmetic on the strided columns of (m, 9) and
     (m, 3) rows costs about twice the copies and the contiguous arithmetic together (measured).
     """
-    c = np.ascontiguousarray(corners.T)
+    m = len(corners)
+    buf = np.empty((21, m), np.float32) if work is None else work.get("barycentrics", m, np.float32, 21)
+    c, d, t, p = buf[0:9], buf[9:12], buf[12:15], buf[15:18]
+    np.copyto(c, corners.T)
     a, e1, e2 = c[0:3], c[3:6], c[6:9]
-    d = np.ascontiguousarray(np.asarray(dirs, dtype=np.float32).T)
-    t = np.ascontiguousarray(np.asarray(origins, dtype=np.float32).T)
+    np.copyto(d, np.asarray(dirs, dtype=np.float32).T)
+    np.copyto(t, np.asarray(origins, dtype=np.float32).T)
     t -= a
-    scratch = np.empty(len(c[0]), dtype=np.float32)
-    p = _cross_rows(d, e2, scratch)
-    det = _dot_rows(e1, p, scratch)
-    ud = _dot_rows(t, p, scratch)
-    vd = _dot_rows(d, _cross_rows(t, e1, scratch, out=p), scratch)
+    scratch = np.empty(m, np.float32) if work is None else work.get("scratch", m, np.float32)
+    _cross_rows(d, e2, scratch, out=p)
+    det = _dot_rows(e1, p, scratch, buf[18])
+    ud = _dot_rows(t, p, scratch, buf[19])
+    vd = _dot_rows(d, _cross_rows(t, e1, scratch, out=p), scratch, buf[20])
     return ud, vd, det
 
 
@@ -178,8 +217,8 @@ def _cross_rows(a, b, scratch, out=None):
     return out
 
 
-def _dot_rows(a, b, scratch):
-    out = a[0] * b[0]
+def _dot_rows(a, b, scratch, out):
+    np.multiply(a[0], b[0], out=out)
     for i in (1, 2):
         np.multiply(a[i], b[i], out=scratch)
         out += scratch
