@@ -128,6 +128,17 @@ def mesh_elements(mesh):
     return _elements[key]
 
 
+def mesh_is_open(mesh):
+    """Whether `mesh` has a boundary edge (an edge of one face), so that a vertex bake also bakes
+    its back side (core.transfer.back); counted once per mesh size."""
+    key = ("open", mesh.as_pointer(), len(mesh.edges), len(mesh.loops))
+    if key not in _elements:
+        edges = np.empty(len(mesh.loops), dtype=np.int32)
+        mesh.loops.foreach_get("edge_index", edges)
+        _elements[key] = bool(np.any(np.bincount(edges, minlength=len(mesh.edges)) == 1))
+    return _elements[key]
+
+
 def _texel_elements(obj, settings):
     """Texel samples of a texel bake: resolution^2 (or area x density^2 over the packing) x S."""
     if settings.resolution:
@@ -150,6 +161,8 @@ def estimate(objects, settings, scene=None, threads=None):
     texel = settings.target == "TEXELS"
     counts = [_texel_elements(o, settings) if texel else mesh_elements(o.data) for o in meshes]
     elements = int(sum(counts))
+    # Open meshes' vertex bakes trace their back side too: the same points again.
+    back = 0 if texel else sum(c for o, c in zip(meshes, counts) if mesh_is_open(o.data))
     order2 = settings.order**2
     triangles = 0
     bounce_elements = 0
@@ -162,7 +175,7 @@ def estimate(objects, settings, scene=None, threads=None):
                     bounce_elements += mesh_elements(obj.data)
     # A texel's S samples share the direction set (each traces N / S of it): N rays per texel.
     texels = elements // SAMPLES_PER_TEXEL if texel else 0
-    rays = texels * settings.samples if texel else elements * settings.samples
+    rays = texels * settings.samples if texel else (elements + back) * settings.samples
     all_rays = rays + bounce_elements * settings.samples
     traced = all_rays
     if texel:  # (covered texels only; adaptive sampling is off with bounces)
@@ -170,7 +183,7 @@ def estimate(objects, settings, scene=None, threads=None):
         traced = share * rays + bounce_elements * settings.samples
     per_ray = SECONDS_PER_RAY + SECONDS_PER_RAY_COEFF * order2
     seconds = SECONDS_FIXED + (traced * per_ray + texels * SECONDS_PER_TEXEL) / threads
-    nbytes = elements * (BYTES_PER_ELEMENT + BYTES_PER_COEFF * order2)
+    nbytes = (elements + back) * (BYTES_PER_ELEMENT + BYTES_PER_COEFF * order2)
     if texel:
         nbytes = sum(
             texel_memory(settings.resolution or int(np.sqrt(c / SAMPLES_PER_TEXEL)), settings.order) for c in counts

@@ -252,7 +252,7 @@ class BakeJob:
         if self._cancel:
             raise transfer.Cancelled()
         items, errors, square_norm_sum = [], [], 0.0
-        stats_all = transfer.TransferStats()
+        stats_all, front = transfer.TransferStats(), transfer.TransferStats()
         backends = set()
         for plan in self.plans:
             try:
@@ -264,6 +264,7 @@ class BakeJob:
             comp = plan.computation
             stats = comp.stats
             stats_all.add(stats)
+            front.add(stats)
             if plan.back is not None:
                 stats_all.add(plan.back.stats)
             traced = plan.occluder is not None and getattr(plan.occluder, "built", False)
@@ -311,6 +312,8 @@ class BakeJob:
         rep.skipped_below_horizon = stats_all.skipped_below_horizon
         rep.skipped_unoccludable = stats_all.skipped_unoccludable
         rep.skipped_shadows_off = stats_all.skipped_shadows_off
+        above = front.rays_traced + front.skipped_unoccludable + front.skipped_shadows_off
+        rep.enclosed_share = front.occluded_rays / above if above else 0.0  # (back sides face outwards)
         rep.points = int(len(err))
         rep.texels = sum(len(p.texels.samples.texels) for p in self.plans if p.texels is not None)
         rep.texels_interpolated = sum(getattr(p.computation, "interpolated", 0) for p in self.plans)

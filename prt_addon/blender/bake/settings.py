@@ -143,6 +143,7 @@ class BakeReport:
     texels: int = 0  # covered texels of a texel bake
     texels_interpolated: int = 0  # of those, filled from agreeing block corners (adaptive)
     texel_notes: list = field(default_factory=list)  # the UV maps made, resolutions, faces not baked
+    enclosed_share: float = 0.0  # the share of the front sides' rays above the surface that hit another surface
 
     @property
     def element(self):
@@ -150,8 +151,7 @@ class BakeReport:
 
     def enclosed_note(self):
         """The sentence proposing bounces for an enclosed scene baked without them, or ''."""
-        above = self.rays_traced + self.skipped_unoccludable + self.skipped_shadows_off
-        share = self.rays_blocked / above if above else 0.0
+        share = self.enclosed_share
         if self.bounces or share < ENCLOSED_SHARE:
             return ""
         return (
