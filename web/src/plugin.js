@@ -24,6 +24,16 @@ function say(level, message) {
   console[level](`PRT Lighting: ${message}`);
 }
 
+/** What of the source material's base colour varies per pixel (prt_material.js): its map, and its
+ * vertex colours when it uses them and the geometry has them (GLTFLoader's COLOR_0). */
+function baseColorSurface(object) {
+  const material = object.material || {};
+  return {
+    map: material.map || null,
+    vertexColors: Boolean(material.vertexColors && object.geometry.getAttribute('color')),
+  };
+}
+
 export class PRTLightingPlugin {
   /** options: {exposure (stops; default the file's), maxTextureSize (default 4096), quiet (no
    * message for a glTF without PRT data), transferSource ('texture', the default: the decoded
@@ -88,7 +98,8 @@ export class PRTLightingPlugin {
         const albedo = primitive.material === undefined || !color ? DEFAULT_ALBEDO : [color.r, color.g, color.b];
         object.frustumCulled = false; // (as before the plugin: the bounding box is the file's)
         const side = object.material ? object.material.side : undefined; // (glTF's doubleSided)
-        baked.push({ object, spec, albedo, side, source: sources.get(object.geometry) });
+        const surface = primitive.material === undefined ? {} : baseColorSurface(object);
+        baked.push({ object, spec, albedo, side, surface, source: sources.get(object.geometry) });
       } catch (error) {
         // (a FormatError, or e.g. a transfer texture larger than the GPU allows)
         say('error', `mesh '${name}': ${error.message}; drawn with its own material`);

@@ -38,7 +38,7 @@ function viewUniforms(views, samples) {
 
 export class PRTLighting {
   /**
-   * lighting: readLighting's (format.js); baked: [{object, source, spec, albedo, side}] (the meshes to
+   * lighting: readLighting's (format.js); baked: [{object, source, spec, albedo, side, surface}] (the meshes to
    * draw with PRT); casters: every mesh of the file (they cast the split lights' shadows).
    */
   constructor({ lighting, baked, casters, exposure }) {
@@ -61,7 +61,7 @@ export class PRTLighting {
       sharpMaps: { value: null },
       wideMaps: { value: null },
     };
-    this.baked = baked.map(({ object, source, spec, albedo, side }) => {
+    this.baked = baked.map(({ object, source, spec, albedo, side, surface }) => {
       const material = prtMaterial({
         source,
         views: this.views.length,
@@ -71,6 +71,7 @@ export class PRTLighting {
         shared: this.shared,
         channels: spec.channels,
         side,
+        surface,
       });
       const relight =
         source.relightSize && (source.relit || source.stage === 'texel')
@@ -142,6 +143,8 @@ export class PRTLighting {
   }
 
   beforeRender(renderer, entry) {
+    const map = entry.material.uniforms.prtMap;
+    if (map && map.value.matrixAutoUpdate) map.value.updateMatrix(); // (its offset, repeat, rotation)
     this.updateMesh(entry);
     if (entry.relight && entry.relight.dirty) entry.relight.run(renderer);
     this.updateShadows(renderer);

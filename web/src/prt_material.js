@@ -1,4 +1,4 @@
-// The PRT material: per-vertex (or per-texel) max(0, sum_i L_i t_i) x albedo, plus the split lights per pixel.
+// The PRT material: per-vertex (or per-texel) max(0, sum_i L_i t_i) x albedo, plus the split lights per pixel, times the base colour map per pixel.
 //
 // The same shading as Blender's display (prt_addon/blender/display/shader.py, shader_suns.py):
 // the transfer comes from a transfer source (transfer_source.js: fetch(k), the k-th vec4 from
@@ -54,9 +54,36 @@ ${transferSum(count, channels, source)}
   radiance = max(r, vec3(0.0)) * albedo * scale;`;
 }
 
-const VERTEX = (count, views, channels, source) => `
+// The source material's base colour per pixel, as MeshStandardMaterial takes it: its map (on the
+// map's UV channel, through its texture transform; an sRGB map decoded by the GPU as three.js
+// uploads it) and its vertex colours, multiplying the diffuse and the split lights' light.
+function surfaceVertex(surface, source) {
+  const lines = [];
+  if (surface.map) {
+    const uv = surface.uvChannel ? `uv${surface.uvChannel}` : 'uv';
+    if (uv !== 'uv' && uv !== source.uvAttribute) lines.push(`attribute vec2 ${uv};`);
+    lines.push('uniform mat3 prtMapTransform;', 'varying vec2 prtMapUv;');
+    lines.push(`#define PRT_MAP_UV (prtMapTransform * vec3(${uv}, 1.0)).xy`);
+  }
+  if (surface.vertexColors) lines.push('attribute vec3 color;', 'varying vec3 prtVertexColor;');
+  return lines.join('\n');
+}
+
+function surfaceFragment(surface) {
+  const lines = [];
+  if (surface.map) lines.push('uniform sampler2D prtMap;', 'varying vec2 prtMapUv;');
+  if (surface.vertexColors) lines.push('varying vec3 prtVertexColor;');
+  lines.push('vec3 prtBaseColor() {', '  vec3 c = vec3(1.0);');
+  if (surface.map) lines.push('  c *= texture2D(prtMap, prtMapUv).rgb;');
+  if (surface.vertexColors) lines.push('  c *= prtVertexColor;');
+  lines.push('  return c;', '}');
+  return lines.join('\n');
+}
+
+const VERTEX = (count, views, channels, source, surface) => `
 ${source.glsl}
 ${source.stage === 'texel' ? `attribute vec2 ${source.uvAttribute};\nvarying vec2 prtUv;` : ''}
+${surfaceVertex(surface, source)}
 ${source.radianceVertex ? 'uniform sampler2D prtRadianceTx;' : ''}
 uniform vec4 light[${3 * count}];
 uniform vec3 lightConstant;
@@ -67,6 +94,8 @@ varying vec3 radiance;
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 void main() {
 ${vertexRadiance(count, channels, source)}
+${surface.map ? '  prtMapUv = PRT_MAP_UV;' : ''}
+${surface.vertexColors ? '  prtVertexColor = color;' : ''}
   vec4 wp = modelMatrix * vec4(position, 1.0);
 ${views ? '  surfaceAlbedo = albedo * scale;\n  worldPos = wp.xyz;\n  localNrm = normal;' : ''}
   gl_Position = projectionMatrix * viewMatrix * wp;
@@ -184,16 +213,17 @@ vec3 prtTexelRadiance() {
   return mix(mix(r00, r10, f.x), mix(r01, r11, f.x), f.y);
 }`;
 
-const FRAGMENT = (views, samples, layout, texel) => `
+const FRAGMENT = (views, samples, layout, texel, surface) => `
 uniform float exposureScale;
 varying vec3 radiance;
+${surfaceFragment(surface)}
 ${texel ? TEXEL_LOOKUP : ''}
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 ${views ? SUN_FUNCTIONS(views, samples) : ''}
 void main() {
   vec3 color = ${texel ? 'prtTexelRadiance() * albedo * scale' : 'radiance'};
 ${views ? sunLoop(layout) : ''}
-  gl_FragColor = vec4(color * exposureScale, 1.0);
+  gl_FragColor = vec4(color * prtBaseColor() * exposureScale, 1.0);
   #include <tonemapping_fragment>
   #include <colorspace_fragment>
 }
@@ -203,7 +233,8 @@ ${views ? sunLoop(layout) : ''}
  * blocks), `views` shadow views holding `samples` samples in all (0: no split lights), a bounced
  * transfer of `channels` channels (0: none), shared uniforms passed in; `layout` per view {count
  * of its samples, wide} (in the order of the shared uniforms); `side` as three.js's
- * (the plugin passes the glTF material's: doubleSided or not). */
+ * (the plugin passes the glTF material's: doubleSided or not); `surface` the source material's
+ * per-pixel base colour: {map (a THREE.Texture, its `channel` and `matrix` used), vertexColors}. */
 export function prtMaterial({
   source,
   views = 0,
@@ -213,7 +244,13 @@ export function prtMaterial({
   shared,
   channels = 0,
   side = THREE.DoubleSide,
+  surface = {},
 }) {
+  const base = {
+    map: surface.map || null,
+    uvChannel: surface.map ? surface.map.channel || 0 : 0,
+    vertexColors: Boolean(surface.vertexColors),
+  };
   if (source.stage !== 'vertex' && source.stage !== 'texel')
     throw new Error(`a '${source.stage}' transfer source is not supported`);
   const count = source.count;
@@ -229,6 +266,7 @@ export function prtMaterial({
     exposureScale: shared.exposureScale,
     prtRadianceTx: { value: null }, // (a relit or texel source: relight.js's texture)
     prtResolution: { value: source.resolution || 0 },
+    ...(base.map ? { prtMap: { value: base.map }, prtMapTransform: { value: base.map.matrix } } : {}),
   };
   if (views) {
     for (const name of ['sunRows', 'sunDir', 'sunPower', 'sunParams', 'sunRange', 'sunSamples']) {
@@ -238,8 +276,8 @@ export function prtMaterial({
   }
   return new THREE.ShaderMaterial({
     uniforms,
-    vertexShader: VERTEX(count, views, channels, source),
-    fragmentShader: FRAGMENT(views, samples, layout, source.stage === 'texel'),
+    vertexShader: VERTEX(count, views, channels, source, base),
+    fragmentShader: FRAGMENT(views, samples, layout, source.stage === 'texel', base),
     side,
   });
 }
