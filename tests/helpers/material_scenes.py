@@ -121,3 +121,37 @@ def paint_box(bpy, box):
     node = tree.nodes.new("ShaderNodeVertexColor")
     node.layer_name = "Paint"
     tree.links.new(node.outputs["Color"], bsdf.inputs["Base Color"])
+
+
+GLOSSY = {"r0.3_m0": (0.3, 0.0), "r0.6_m0": (0.6, 0.0), "r0.3_m1": (0.3, 1.0), "r0.6_m1": (0.6, 1.0)}
+
+
+def glossy_scene(bpy, scene, hdri="forest"):
+    """Four Principled spheres (radius 0.45; GLOSSY's roughness and metallic, base 0.8) in a row on
+    a 6 x 6 ground (roughness 1), the camera looking down at them, the scene's Specular on;
+    -> ({name: object} with the ground, camera)."""
+    from helpers.display_scenes import add_camera
+    from helpers.specular_scenes import principled_material
+
+    scene.prt_display.specular = True
+    world = new_world(bpy, scene)
+    use_image(world, bpy.data.images.load(bundled_hdri_path(hdri), check_existing=True))
+    objects = {}
+    for i, (name, (roughness, metallic)) in enumerate(GLOSSY.items()):
+        bpy.ops.mesh.primitive_uv_sphere_add(
+            segments=48, ring_count=24, radius=0.45, location=(1.1 * i - 1.65, 0, 0.45)
+        )
+        obj = bpy.context.active_object
+        obj.name = name
+        obj.data.shade_smooth()
+        obj.data.materials.append(principled_material(bpy, name, (0.8, 0.8, 0.8), roughness, metallic))
+        objects[name] = obj
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=48, y_subdivisions=48, size=6.0)
+    ground = bpy.context.active_object
+    ground.name = "ground"
+    ground.data.materials.append(principled_material(bpy, "ground", (0.5, 0.5, 0.5), 1.0, 0.0))
+    objects["ground"] = ground
+    cam = add_camera(bpy, scene, location=(0.0, -4.2, 2.6), euler=(np.radians(60.0), 0.0, 0.0), size=320)
+    scene.render.resolution_y = 160
+    bpy.context.view_layer.update()
+    return objects, cam
