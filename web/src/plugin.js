@@ -17,11 +17,22 @@ import {
 } from './transfer_source.js';
 import { DEFAULT_ALBEDO, PRTLighting } from './prt_lighting.js';
 import { loadEnvironment } from './background.js';
+import { loadSpecular, readMaterial } from './specular.js';
 
 export const EXTRAS_KEY = 'PRT_lighting';
 
 function say(level, message) {
   console[level](`PRT Lighting: ${message}`);
+}
+
+/** What of the source material's base colour varies per pixel (prt_material.js): its map, and its
+ * vertex colours when it uses them and the geometry has them (GLTFLoader's COLOR_0). */
+function baseColorSurface(object) {
+  const material = object.material || {};
+  return {
+    map: material.map || null,
+    vertexColors: Boolean(material.vertexColors && object.geometry.getAttribute('color')),
+  };
 }
 
 export class PRTLightingPlugin {
@@ -30,7 +41,9 @@ export class PRTLightingPlugin {
    * transfer in a float texture; 'packed': a quantised transfer's integers in packed vertex
    * attributes when they fit, half the GPU memory, slower in software WebGL: docs/export.md),
    * relight (true, the default: the texture's sums drawn once per lighting change into a texture
-   * each vertex reads; false: summed per vertex every frame). A texel bake is always relit. */
+   * each vertex reads; false: summed per vertex every frame), specular (true, the default: the
+   * Principled specular of docs/specular.md on meshes whose material is a Principled one, when the
+   * file carries the specular sky and table; false: the diffuse only). A texel bake is always relit. */
   constructor(parser, options = {}) {
     this.parser = parser;
     this.options = options;
@@ -88,7 +101,10 @@ export class PRTLightingPlugin {
         const albedo = primitive.material === undefined || !color ? DEFAULT_ALBEDO : [color.r, color.g, color.b];
         object.frustumCulled = false; // (as before the plugin: the bounding box is the file's)
         const side = object.material ? object.material.side : undefined; // (glTF's doubleSided)
-        baked.push({ object, spec, albedo, side, source: sources.get(object.geometry) });
+        const surface = primitive.material === undefined ? {} : baseColorSurface(object);
+        const gltfMaterial = primitive.material === undefined ? null : (json.materials || [])[primitive.material];
+        const constants = gltfMaterial ? readMaterial((gltfMaterial.extras || {})[EXTRAS_KEY]) : null;
+        baked.push({ object, spec, albedo, side, surface, constants, source: sources.get(object.geometry) });
       } catch (error) {
         // (a FormatError, or e.g. a transfer texture larger than the GPU allows)
         say('error', `mesh '${name}': ${error.message}; drawn with its own material`);
@@ -104,8 +120,16 @@ export class PRTLightingPlugin {
       say('warn', 'the file has PRT lighting but no mesh with a usable transfer: drawn without PRT');
       return;
     }
+    let specular = null;
+    if (this.options.specular !== false) {
+      try {
+        specular = await loadSpecular(this.parser, meta.specular);
+      } catch (error) {
+        say('error', `the specular data cannot be read (${error.message}); drawn diffuse only`);
+      }
+    }
     try {
-      this.prt = new PRTLighting({ lighting, baked, casters, exposure: this.options.exposure });
+      this.prt = new PRTLighting({ lighting, baked, casters, exposure: this.options.exposure, specular });
     } catch (error) {
       say('error', `${error.message}; the scene is drawn without PRT`);
       for (const { object } of baked) object.frustumCulled = true;

@@ -7,7 +7,7 @@
 // follows its node's world matrix, and the shadow maps are drawn again (nested render, as
 // three.js's Reflector does) when the lighting turned or a caster moved.
 import * as THREE from 'three';
-import { lightInLocalFrame, multiply3 } from './sh_rotation.js';
+import { frameRotation, lightInLocalFrame, multiply3, transpose3 } from './sh_rotation.js';
 import { prtMaterial, setLight } from './prt_material.js';
 import { MAX_SUNS, ShadowMaps, fileViews } from './shadows.js';
 import { rotationRows, turned } from './rotation_input.js';
@@ -38,10 +38,11 @@ function viewUniforms(views, samples) {
 
 export class PRTLighting {
   /**
-   * lighting: readLighting's (format.js); baked: [{object, source, spec, albedo, side}] (the meshes to
+   * lighting: readLighting's (format.js); baked: [{object, source, spec, albedo, side, surface,
+   * constants (a Principled material's, specular.js; null: diffuse only)}] (the meshes to
    * draw with PRT); casters: every mesh of the file (they cast the split lights' shadows).
    */
-  constructor({ lighting, baked, casters, exposure }) {
+  constructor({ lighting, baked, casters, exposure, specular = null }) {
     this.lighting = lighting;
     this.lights = lighting.lights.slice(0, MAX_SUNS);
     this.views = fileViews(this.lights);
@@ -60,17 +61,34 @@ export class PRTLighting {
       ...viewUniforms(this.views.length, samples),
       sharpMaps: { value: null },
       wideMaps: { value: null },
+      // The Principled specular's sky and table (specular.js), when the file has them.
+      skyTx: { value: specular ? specular.sky : null },
+      brdfTx: { value: specular ? specular.table : null },
+      skyRows: { value: new THREE.Matrix3() },
+      skySize: {
+        value: new THREE.Vector3(...(specular ? [specular.levels, specular.width, specular.height] : [1, 1, 1])),
+      },
     };
-    this.baked = baked.map(({ object, source, spec, albedo, side }) => {
+    this.specular = specular;
+    this.setSkyRows();
+    const layout = this.views.map((view) => ({
+      count: view.samples.length,
+      wide: view.wide,
+      share: view.weights.reduce((a, b) => a + b, 0), // (of its light's power)
+    }));
+    this.baked = baked.map(({ object, source, spec, albedo, side, surface, constants }) => {
+      const glossy = specular && constants ? { order: spec.order, constants } : null;
       const material = prtMaterial({
         source,
         views: this.views.length,
         samples,
-        layout: this.views.map((view) => ({ count: view.samples.length, wide: view.wide })),
+        layout,
         albedo,
         shared: this.shared,
         channels: spec.channels,
         side,
+        surface,
+        glossy,
       });
       const relight =
         source.relightSize && (source.relit || source.stage === 'texel')
@@ -106,6 +124,14 @@ export class PRTLighting {
     this.shared.turnInverse.value.set(r[0], r[3], r[6], r[1], r[4], r[7], r[2], r[5], r[8]);
     for (const entry of this.baked) entry.frame = null; // their lights again (beforeRender)
     this.shadowsDirty = Boolean(this.shadows);
+    this.setSkyRows();
+  }
+
+  /** The specular sky's lookup rows: glTF world -> the sky's image frame, after undoing the turn. */
+  setSkyRows() {
+    if (!this.specular) return;
+    const r = multiply3(this.specular.rows, transpose3(this.turn));
+    this.shared.skyRows.value.set(...r);
   }
 
   /** The current turn as 9 numbers (row-major 3x3). */
@@ -142,6 +168,8 @@ export class PRTLighting {
   }
 
   beforeRender(renderer, entry) {
+    const map = entry.material.uniforms.prtMap;
+    if (map && map.value.matrixAutoUpdate) map.value.updateMatrix(); // (its offset, repeat, rotation)
     this.updateMesh(entry);
     if (entry.relight && entry.relight.dirty) entry.relight.run(renderer);
     this.updateShadows(renderer);
@@ -165,6 +193,11 @@ export class PRTLighting {
       material.uniforms.bounceConstant.value.set(...bounce.constant);
     }
     material.uniforms.nrmMatrix.value.getNormalMatrix(object.matrixWorld);
+    if (material.uniforms.prtFrame) {
+      // The transfer's frame (local SH -> world): the polar factor of the node's matrix.
+      const { rotation, mirrored } = frameRotation(frame);
+      material.uniforms.prtFrame.value.set(...(mirrored ? rotation.map((x) => -x) : rotation));
+    }
     entry.frame = object.matrixWorld.clone();
     if (entry.relight) entry.relight.dirty = true; // (drawn again before the mesh, beforeRender)
   }

@@ -1,4 +1,4 @@
-// The PRT material: per-vertex (or per-texel) max(0, sum_i L_i t_i) x albedo, plus the split lights per pixel.
+// The PRT material: per-vertex (or per-texel) max(0, sum_i L_i t_i) x albedo, plus the split lights per pixel, times the base colour map per pixel.
 //
 // The same shading as Blender's display (prt_addon/blender/display/shader.py, shader_suns.py):
 // the transfer comes from a transfer source (transfer_source.js: fetch(k), the k-th vec4 from
@@ -20,6 +20,7 @@ import {
   WIDE_BLOCKER_TAPS,
   WIDE_PCF_TAPS,
 } from './shadows.js';
+import { SPECULAR_FRAGMENT, specularUniforms, specularVertex } from './specular.js';
 
 // The sum unrolled (k constant, so a source's fetch(k) can name an attribute). A bounced bake
 // (Blender's bake.md, "Interreflection") has `channels` more blocks of `count` vec4s after the
@@ -54,9 +55,37 @@ ${transferSum(count, channels, source)}
   radiance = max(r, vec3(0.0)) * albedo * scale;`;
 }
 
-const VERTEX = (count, views, channels, source) => `
+// The source material's base colour per pixel, as MeshStandardMaterial takes it: its map (on the
+// map's UV channel, through its texture transform; an sRGB map decoded by the GPU as three.js
+// uploads it) and its vertex colours, multiplying the diffuse and the split lights' light.
+function surfaceVertex(surface, source) {
+  const lines = [];
+  if (surface.map) {
+    const uv = surface.uvChannel ? `uv${surface.uvChannel}` : 'uv';
+    if (uv !== 'uv' && uv !== source.uvAttribute) lines.push(`attribute vec2 ${uv};`);
+    lines.push('uniform mat3 prtMapTransform;', 'varying vec2 prtMapUv;');
+    lines.push(`#define PRT_MAP_UV (prtMapTransform * vec3(${uv}, 1.0)).xy`);
+  }
+  if (surface.vertexColors) lines.push('attribute vec3 color;', 'varying vec3 prtVertexColor;');
+  return lines.join('\n');
+}
+
+function surfaceFragment(surface) {
+  const lines = [];
+  if (surface.map) lines.push('uniform sampler2D prtMap;', 'varying vec2 prtMapUv;');
+  if (surface.vertexColors) lines.push('varying vec3 prtVertexColor;');
+  lines.push('vec3 prtBaseColor() {', '  vec3 c = vec3(1.0);');
+  if (surface.map) lines.push('  c *= texture2D(prtMap, prtMapUv).rgb;');
+  if (surface.vertexColors) lines.push('  c *= prtVertexColor;');
+  lines.push('  return c;', '}');
+  return lines.join('\n');
+}
+
+const VERTEX = (count, views, channels, source, surface, glossy) => `
 ${source.glsl}
+${glossy ? specularVertex(source, glossy.order) : ''}
 ${source.stage === 'texel' ? `attribute vec2 ${source.uvAttribute};\nvarying vec2 prtUv;` : ''}
+${surfaceVertex(surface, source)}
 ${source.radianceVertex ? 'uniform sampler2D prtRadianceTx;' : ''}
 uniform vec4 light[${3 * count}];
 uniform vec3 lightConstant;
@@ -67,7 +96,10 @@ varying vec3 radiance;
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 void main() {
 ${vertexRadiance(count, channels, source)}
+${surface.map ? '  prtMapUv = PRT_MAP_UV;' : ''}
+${surface.vertexColors ? '  prtVertexColor = color;' : ''}
   vec4 wp = modelMatrix * vec4(position, 1.0);
+${glossy ? '  prtSpecularVertex(wp.xyz);' : ''}
 ${views ? '  surfaceAlbedo = albedo * scale;\n  worldPos = wp.xyz;\n  localNrm = normal;' : ''}
   gl_Position = projectionMatrix * viewMatrix * wp;
 }
@@ -145,10 +177,15 @@ float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pc
 // The views written out one by one (layout: per view {count of samples, wide}, fixed per file), so
 // that every uniform index is a constant: software WebGL (SwiftShader) indexes uniform arrays by
 // a variable slowly. The same sums as Blender's view_cosine over each view's own samples.
-function sunLoop(layout) {
-  const lines = ['  vec3 n = normalize(nrmMatrix * localNrm);', '  vec3 sun = vec3(0.0);', '  float c;'];
+function sunLoop(layout, glossy) {
+  const lines = [
+    '  vec3 n = normalize(nrmMatrix * localNrm);',
+    '  vec3 sun = vec3(0.0);',
+    '  float c;',
+    '  float vis;',
+  ];
   let first = 0;
-  layout.forEach(({ count, wide }, v) => {
+  layout.forEach(({ count, wide, share }, v) => {
     lines.push('  c = 0.0;');
     for (let j = first; j < first + count; j++)
       lines.push(`  c += sunSamples[${j}].w * max(dot(n, sunSamples[${j}].xyz), 0.0);`);
@@ -156,7 +193,17 @@ function sunLoop(layout) {
     const visibility = wide
       ? `viewVisibility(wideMaps, ${v}, n, ${WIDE_BLOCKER_TAPS}, ${WIDE_PCF_TAPS})`
       : `viewVisibility(sharpMaps, ${v}, n, ${BLOCKER_TAPS}, ${PCF_TAPS})`;
-    lines.push(`  if (c > 0.0) sun += sunPower[${v}].rgb * (c * (useShadows ? ${visibility} : 1.0));`);
+    lines.push(
+      `  if (c > 0.0) {`,
+      `    vis = useShadows ? ${visibility} : 1.0;`,
+      `    sun += sunPower[${v}].rgb * (c * vis);`,
+    );
+    // (a view's highlight weighted by its share of its light's power: a wide light's views sum to 1)
+    if (glossy) {
+      const highlight = `sunSpecular(sunDir[${v}].xyz, atan(sunParams[${v}].y))`;
+      lines.push(`    sunSpec += sunPower[${v}].rgb * (${highlight} * (vis * ${(share ?? 1).toFixed(9)}));`);
+    }
+    lines.push('  }');
   });
   lines.push('  color += surfaceAlbedo * sun;');
   return lines.join('\n');
@@ -184,16 +231,26 @@ vec3 prtTexelRadiance() {
   return mix(mix(r00, r10, f.x), mix(r01, r11, f.x), f.y);
 }`;
 
-const FRAGMENT = (views, samples, layout, texel) => `
+// The end of the fragment shader: the base colour per pixel, and with specular Principled's weights.
+function shade(glossy) {
+  if (!glossy) return '  gl_FragColor = vec4(color * prtBaseColor() * exposureScale, 1.0);';
+  return `  gl_FragColor = vec4(prtSpecularShade(color * prtBaseColor(), sunSpec, base, scale) * exposureScale, 1.0);`;
+}
+
+const FRAGMENT = (views, samples, layout, texel, surface, glossy) => `
 uniform float exposureScale;
 varying vec3 radiance;
+${glossy && !texel ? 'uniform vec3 albedo;\nuniform float scale;' : ''}
+${surfaceFragment(surface)}
+${glossy ? SPECULAR_FRAGMENT : ''}
 ${texel ? TEXEL_LOOKUP : ''}
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 ${views ? SUN_FUNCTIONS(views, samples) : ''}
 void main() {
   vec3 color = ${texel ? 'prtTexelRadiance() * albedo * scale' : 'radiance'};
-${views ? sunLoop(layout) : ''}
-  gl_FragColor = vec4(color * exposureScale, 1.0);
+${glossy ? '  vec3 sunSpec = vec3(0.0);\n  vec3 base = albedo * prtBaseColor();\n  prtSpecularSetup(base);' : ''}
+${views ? sunLoop(layout, glossy) : ''}
+${shade(glossy)}
   #include <tonemapping_fragment>
   #include <colorspace_fragment>
 }
@@ -203,7 +260,10 @@ ${views ? sunLoop(layout) : ''}
  * blocks), `views` shadow views holding `samples` samples in all (0: no split lights), a bounced
  * transfer of `channels` channels (0: none), shared uniforms passed in; `layout` per view {count
  * of its samples, wide} (in the order of the shared uniforms); `side` as three.js's
- * (the plugin passes the glTF material's: doubleSided or not). */
+ * (the plugin passes the glTF material's: doubleSided or not); `surface` the source material's
+ * per-pixel base colour: {map (a THREE.Texture, its `channel` and `matrix` used), vertexColors};
+ * `glossy` the Principled specular (specular.js: {order, constants: readMaterial's}; null: diffuse
+ * only), its shared uniforms (skyTx, brdfTx, skyRows, skySize) in `shared`. */
 export function prtMaterial({
   source,
   views = 0,
@@ -213,7 +273,14 @@ export function prtMaterial({
   shared,
   channels = 0,
   side = THREE.DoubleSide,
+  surface = {},
+  glossy = null,
 }) {
+  const base = {
+    map: surface.map || null,
+    uvChannel: surface.map ? surface.map.channel || 0 : 0,
+    vertexColors: Boolean(surface.vertexColors),
+  };
   if (source.stage !== 'vertex' && source.stage !== 'texel')
     throw new Error(`a '${source.stage}' transfer source is not supported`);
   const count = source.count;
@@ -229,6 +296,8 @@ export function prtMaterial({
     exposureScale: shared.exposureScale,
     prtRadianceTx: { value: null }, // (a relit or texel source: relight.js's texture)
     prtResolution: { value: source.resolution || 0 },
+    ...(base.map ? { prtMap: { value: base.map }, prtMapTransform: { value: base.map.matrix } } : {}),
+    ...(glossy ? specularUniforms(shared, glossy.constants) : {}),
   };
   if (views) {
     for (const name of ['sunRows', 'sunDir', 'sunPower', 'sunParams', 'sunRange', 'sunSamples']) {
@@ -238,8 +307,8 @@ export function prtMaterial({
   }
   return new THREE.ShaderMaterial({
     uniforms,
-    vertexShader: VERTEX(count, views, channels, source),
-    fragmentShader: FRAGMENT(views, samples, layout, source.stage === 'texel'),
+    vertexShader: VERTEX(count, views, channels, source, base, glossy),
+    fragmentShader: FRAGMENT(views, samples, layout, source.stage === 'texel', base, glossy),
     side,
   });
 }

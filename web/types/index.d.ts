@@ -19,6 +19,8 @@ export interface PRTLightingOptions {
    * one value a frame, whatever the order) or summed per vertex every frame (false). Texel bakes
    * are always relit, and looked up per pixel through their lightmap UV map. */
   relight?: boolean;
+  /** Principled specular (sky, split-sum table, occlusion, the split lights' highlights) on Principled materials, when the file carries it (default true). */
+  specular?: boolean;
 }
 
 export interface PRTInfo {

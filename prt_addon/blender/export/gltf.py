@@ -22,7 +22,7 @@ from ...core.sh import rotation as _rotation
 from ..scene import lighting as _lighting, storage
 from ..world import nodes as _nodes, projection as _world
 from ..world.nodes import WorldError
-from . import glb, ibl, quantise, texels
+from . import glb, ibl, quantise, specular, texels
 
 ATTRIBUTE_PREFIX = "_PRT_T"
 EXTRAS_KEY = "PRT_lighting"
@@ -346,6 +346,10 @@ def export_gltf(path, objects=None, scene=None, environment_size=ibl.DEFAULT_SIZ
             environment = ibl.environment(scene, world, environment_size)
         except (WorldError, ValueError) as error:
             raise ExportError(f"the environment map cannot be made: {error}") from None
+    try:
+        glossy = specular.prepare(scene) if specular.enabled(scene) else None
+    except (WorldError, ValueError) as error:
+        raise ExportError(f"the specular sky cannot be made: {error}") from None
     _ensure_exporter()
     state = _state(plan)
     added = []
@@ -369,6 +373,9 @@ def export_gltf(path, objects=None, scene=None, environment_size=ibl.DEFAULT_SIZ
         texels.annotate(document, chunks, texel, to_gltf_frame, texels.encoding_for(transfer), EXTRAS_KEY)
         if environment is not None:
             ibl.write(document, chunks, environment[0], environment[1], glb.CHUNK_BIN)
+        materials = {s.material.name: s.material for o, _b in plan for s in o.material_slots if s.material}
+        if glossy is not None:
+            specular.write(document, chunks, glb.CHUNK_BIN, glossy, materials, EXTRAS_KEY)
         glb.write(temp, document, chunks)
         os.replace(temp, path)
     except OSError as error:

@@ -1,0 +1,312 @@
+// Principled specular in the PRT material: the file's residual sky levels and split-sum table, the GLSL of Blender's display's.
+//
+// The port of prt_addon/blender/display/shader_specular.py (docs/specular.md): per pixel
+//   out = k_d diffuse + scale (S(R) E_spec occ + sum_v P_v f_GGX(n, v, l_v) n.l_v V_v share_v)
+// with S the sky level at the roughness (the file's GGX-prefiltered residual sky, in its image
+// frame: looked up at rows * d, rows the file's glTF -> image rows times the lighting turn's
+// inverse) at Frostbite's dominant direction, E_spec the multiple-scattering albedo from the
+// split-sum table, occ the specular occlusion from the transfer (the cones of bands 0 and 1 below
+// roughness 0.3, the lobe-weighted visibility of the full transfer above 0.6, per vertex), the
+// split lights' GGX at the representative point of each view's disc with its shadow map's
+// visibility, each view weighted by its share of its light's power.
+import * as THREE from 'three';
+
+const Y0 = 0.28209479177387814;
+const ROUGH_FROM = 0.3;
+const ROUGH_SPAN = 0.3;
+export const BAND_COUNT = 32;
+
+function halfRgbToRgba(bytes, texels) {
+  const rgb = new Uint16Array(bytes.buffer, bytes.byteOffset, texels * 3);
+  const out = new Uint16Array(texels * 4);
+  for (let i = 0; i < texels; i++) {
+    out[4 * i] = rgb[3 * i];
+    out[4 * i + 1] = rgb[3 * i + 1];
+    out[4 * i + 2] = rgb[3 * i + 2];
+    out[4 * i + 3] = 0x3c00; // 1.0
+  }
+  return out;
+}
+
+function dataTexture(data, width, height, type) {
+  const texture = new THREE.DataTexture(data, width, height, THREE.RGBAFormat, type);
+  texture.minFilter = texture.magFilter = THREE.NearestFilter;
+  texture.generateMipmaps = false;
+  texture.needsUpdate = true;
+  return texture;
+}
+
+/** The file's specular data (the scene extras' `specular`, docs/export.md) as textures: the sky
+ * levels stacked (level k's rows above level k - 1's), the table (RG), the rows; null without. */
+export async function loadSpecular(parser, block) {
+  if (!block || !block.sky || !block.brdf || !Array.isArray(block.sky_rows)) return null;
+  const { levels, width, height } = block.sky;
+  const sky = await parser.getDependency('bufferView', block.sky.bufferView);
+  const table = await parser.getDependency('bufferView', block.brdf.bufferView);
+  const texels = levels * width * height;
+  if (sky.byteLength < texels * 6) throw new Error('the specular sky is truncated');
+  const size = block.brdf.size;
+  if (table.byteLength < size * size * 8) throw new Error('the split-sum table is truncated');
+  const rg = new Float32Array(table.slice(0, size * size * 8));
+  const rgba = new Float32Array(size * size * 4);
+  for (let i = 0; i < size * size; i++) {
+    rgba[4 * i] = rg[2 * i];
+    rgba[4 * i + 1] = rg[2 * i + 1];
+  }
+  return {
+    sky: dataTexture(halfRgbToRgba(new Uint8Array(sky), texels), width, levels * height, THREE.HalfFloatType),
+    table: dataTexture(rgba, size, size, THREE.FloatType),
+    levels,
+    width,
+    height,
+    rows: block.sky_rows.flat().map(Number),
+  };
+}
+
+/** A material's constants (its PRT_lighting extras) or null: {roughness, metallic, f0, bands, open}. */
+export function readMaterial(extras) {
+  if (!extras || !Array.isArray(extras.lobe_bands) || !Array.isArray(extras.lobe_open)) return null;
+  const vec4s = (values) =>
+    Array.from(
+      { length: BAND_COUNT / 4 },
+      (_v, k) => new THREE.Vector4(...[0, 1, 2, 3].map((j) => Number(values[4 * k + j] || 0))),
+    );
+  return {
+    roughness: Number(extras.roughness),
+    metallic: Number(extras.metallic),
+    f0: Number(extras.f0),
+    bands: vec4s(extras.lobe_bands),
+    open: vec4s(extras.lobe_open),
+  };
+}
+
+/** Vertex GLSL: the first transfer vec4 (bands 0 and 1) and the full transfer's occlusion at the
+ * vertex's reflection direction (the real SH basis by its recurrences, as shader_specular's
+ * occlusion_lines); a source without decoded values at the vertex (packed, texel) is open. */
+export function specularVertex(source, order) {
+  const decoded = source.kind === 'texture';
+  const lines = [
+    'uniform mat3 nrmMatrix;',
+    'uniform mat3 prtFrame;',
+    'uniform vec4 prtBands[8];',
+    'uniform vec4 prtOpen[8];',
+    'varying vec3 prtSpecPos;',
+    'varying vec3 prtSpecNrm;',
+    'varying vec4 prtSpecVis;',
+    'varying float prtSpecOcc;',
+    'void prtSpecularVertex(vec3 wp) {',
+    '  prtSpecPos = wp;',
+    '  prtSpecNrm = nrmMatrix * normal;',
+  ];
+  if (!decoded) {
+    lines.push(`  prtSpecVis = vec4(${Y0}, 0.0, 0.0, 0.0);`, '  prtSpecOcc = 1.0;', '}');
+    return lines.join('\n');
+  }
+  const n = Math.min(order, BAND_COUNT);
+  const vec4s = Math.ceil((n * n) / 4);
+  for (let k = 0; k < vec4s; k++) lines.push(`  vec4 q${k} = ${source.fetch(k)};`);
+  const coeff = (i) => `q${i >> 2}[${i & 3}]`;
+  const band = (l) => `prtBands[${l >> 2}][${l & 3}]`;
+  lines.push(
+    '  prtSpecVis = q0;',
+    '  vec3 sn = normalize(prtSpecNrm);',
+    '  vec3 sv = isOrthographic ? vec3(viewMatrix[0][2], viewMatrix[1][2], viewMatrix[2][2]) : normalize(cameraPosition - wp);',
+    '  vec3 sr = reflect(-sv, sn);',
+    '  vec3 d = transpose(prtFrame) * sr;',
+    '  float seen = 0.0;',
+    '  float c0 = 1.0;',
+    '  float s0 = 0.0;',
+  );
+  let factorial = 1;
+  for (let m = 0; m < n; m++) {
+    if (m > 0) {
+      lines.push(`  float c${m} = d.x * c${m - 1} - d.y * s${m - 1};`);
+      lines.push(`  float s${m} = d.x * s${m - 1} + d.y * c${m - 1};`);
+      factorial *= 2 * m - 1;
+    }
+    for (let l = m; l < n; l++) {
+      let q;
+      if (l === m) q = `${factorial.toFixed(1)}`;
+      else if (l === m + 1) q = `${2 * m + 1}.0 * d.z * Q${l - 1}_${m}`;
+      else q = `(${2 * l - 1}.0 * d.z * Q${l - 1}_${m} - ${l + m - 1}.0 * Q${l - 2}_${m}) / ${l - m}.0`;
+      lines.push(`  float Q${l}_${m} = ${q};`);
+      let ratio = 1;
+      for (let j = l - m + 1; j <= l + m; j++) ratio *= j;
+      let k = Math.sqrt((2 * l + 1) / (4 * Math.PI) / ratio);
+      if (m === 0) lines.push(`  seen += ${band(l)} * ${coeff(l * l + l)} * (${k.toExponential(16)} * Q${l}_0);`);
+      else {
+        k *= Math.SQRT2;
+        lines.push(
+          `  seen += ${band(l)} * (${k.toExponential(16)} * Q${l}_${m}) * (${coeff(l * l + l + m)} * c${m} + ${coeff(l * l + l - m)} * s${m});`,
+        );
+      }
+    }
+  }
+  lines.push('  float mu = dot(sn, sr);', '  float p0 = 1.0;', '  float p1 = mu;');
+  const terms = ['prtOpen[0][0]'];
+  if (n > 1) terms.push('prtOpen[0][1] * mu');
+  for (let l = 2; l < n; l++) {
+    lines.push(`  float p${l} = (${2 * l - 1}.0 * mu * p${l - 1} - ${l - 1}.0 * p${l - 2}) / ${l}.0;`);
+    terms.push(`prtOpen[${l >> 2}][${l & 3}] * p${l}`);
+  }
+  lines.push(`  float open_ = ${terms.join(' + ')};`, '  prtSpecOcc = open_ > 1e-8 ? seen / open_ : 1.0;', '}');
+  return lines.join('\n');
+}
+
+/** Fragment GLSL: the sky, the table, the lobe's albedo, the occlusion, the shading (spec_shade). */
+export const SPECULAR_FRAGMENT = `
+uniform sampler2D prtSkyTx;
+uniform sampler2D prtBrdfTx;
+uniform mat3 prtSkyRows;
+uniform vec3 prtSkySize;
+uniform vec4 prtSurface;
+uniform mat3 prtFrame;
+varying vec3 prtSpecPos;
+varying vec3 prtSpecNrm;
+varying vec4 prtSpecVis;
+varying float prtSpecOcc;
+vec3 spec_n;
+vec3 spec_v;
+vec3 spec_r;
+float spec_nv;
+float spec_alpha;
+vec3 spec_f0;
+vec2 spec_ab;
+
+vec3 skyTexel(int x, int y) {
+  return texelFetch(prtSkyTx, ivec2(x, y), 0).rgb;
+}
+
+vec3 skyLevel(int level, vec2 uv) {
+  int w = int(prtSkySize.y);
+  int h = int(prtSkySize.z);
+  vec2 p = uv * vec2(float(w), float(h)) - 0.5;
+  p.y = clamp(p.y, 0.0, float(h - 1));
+  ivec2 a = ivec2(floor(p));
+  vec2 f = p - vec2(a);
+  int x0 = (a.x % w + w) % w;
+  int x1 = (x0 + 1) % w;
+  int y0 = level * h + a.y;
+  int y1 = level * h + min(a.y + 1, h - 1);
+  return mix(mix(skyTexel(x0, y0), skyTexel(x1, y0), f.x), mix(skyTexel(x0, y1), skyTexel(x1, y1), f.x), f.y);
+}
+
+vec3 skyRadiance(vec3 d, float roughness) {
+  vec3 q = prtSkyRows * d;
+  vec2 uv = vec2(-atan(q.y, q.x) / (2.0 * 3.14159265) + 0.5, atan(q.z, length(q.xy)) / 3.14159265 + 0.5);
+  float level = roughness * (prtSkySize.x - 1.0);
+  int l0 = int(floor(level));
+  int l1 = min(l0 + 1, int(prtSkySize.x) - 1);
+  return mix(skyLevel(l0, uv), skyLevel(l1, uv), level - float(l0));
+}
+
+vec2 brdfAB(float nv, float roughness) {
+  vec2 size = vec2(textureSize(prtBrdfTx, 0));
+  vec2 p = clamp(vec2(nv, roughness) * size - 0.5, vec2(0.0), size - 1.0);
+  ivec2 a = ivec2(floor(p));
+  ivec2 b = min(a + 1, ivec2(size) - 1);
+  vec2 f = p - vec2(a);
+  vec2 low = mix(texelFetch(prtBrdfTx, a, 0).rg, texelFetch(prtBrdfTx, ivec2(b.x, a.y), 0).rg, f.x);
+  vec2 high = mix(texelFetch(prtBrdfTx, ivec2(a.x, b.y), 0).rg, texelFetch(prtBrdfTx, b, 0).rg, f.x);
+  return mix(low, high, f.y);
+}
+
+vec3 lobeAlbedo(vec3 f0) {
+  // Fdez-Aguera 2019: single scattering plus the compensated multiple scattering.
+  vec3 single = f0 * spec_ab.x + spec_ab.y;
+  float e_ms = 1.0 - spec_ab.x - spec_ab.y;
+  vec3 f_avg = f0 + (1.0 - f0) / 21.0;
+  return single + single * f_avg / (1.0 - e_ms * f_avg) * e_ms;
+}
+
+float capIntersection(float ca, float cb, float cg) {
+  ca = clamp(ca, -1.0, 1.0);
+  cb = clamp(cb, -1.0, 1.0);
+  cg = clamp(cg, -1.0, 1.0);
+  float a = acos(ca);
+  float b = acos(cb);
+  float g = acos(cg);
+  float smaller = 2.0 * 3.14159265 * (1.0 - max(ca, cb));
+  if (g <= abs(a - b)) return smaller;
+  if (g >= a + b) return 0.0;
+  float sa = max(sin(a), 1e-6);
+  float sb = max(sin(b), 1e-6);
+  float sg = max(sin(g), 1e-6);
+  float gap = acos(clamp((cg - ca * cb) / (sa * sb), -1.0, 1.0));
+  float x = acos(clamp((cb - cg * ca) / (sg * sa), -1.0, 1.0));
+  float y = acos(clamp((ca - cg * cb) / (sg * sb), -1.0, 1.0));
+  return clamp(2.0 * (3.14159265 - gap - ca * x - cb * y), 0.0, smaller);
+}
+
+float specularOcclusion() {
+  float ao = clamp(prtSpecVis.x / ${Y0}, 0.0, 1.0);
+  vec3 b = prtFrame * vec3(prtSpecVis.w, prtSpecVis.y, prtSpecVis.z);
+  float len = length(b);
+  b = len > 1e-8 ? b / len : spec_n;
+  float cos_s = exp2(-3.32193 * spec_alpha * spec_alpha);
+  float open_ = capIntersection(0.0, cos_s, dot(spec_n, spec_r));
+  float cones = open_ <= 1e-7 ? 1.0 : clamp(capIntersection(sqrt(1.0 - ao), cos_s, dot(b, spec_r)) / open_, 0.0, 1.0);
+  return mix(cones, clamp(prtSpecOcc, 0.0, 1.0), clamp((prtSurface.x - ${ROUGH_FROM}) / ${ROUGH_SPAN}, 0.0, 1.0));
+}
+
+void prtSpecularSetup(vec3 base) {
+  spec_n = normalize(prtSpecNrm);
+  spec_v = isOrthographic ? vec3(viewMatrix[0][2], viewMatrix[1][2], viewMatrix[2][2]) : normalize(cameraPosition - prtSpecPos);
+  spec_nv = clamp(dot(spec_n, spec_v), 1e-4, 1.0);
+  spec_r = reflect(-spec_v, spec_n);
+  spec_alpha = max(prtSurface.x * prtSurface.x, 1e-3);
+  spec_f0 = mix(vec3(prtSurface.z), base, prtSurface.y);
+  spec_ab = brdfAB(spec_nv, prtSurface.x);
+}
+
+vec3 prtSpecularShade(vec3 diffuse, vec3 sunSpec, vec3 base, float scale) {
+  vec3 dielectric = lobeAlbedo(vec3(prtSurface.z));
+  vec3 e_spec = mix(dielectric, lobeAlbedo(base), prtSurface.y);
+  vec3 kd = (1.0 - prtSurface.y) * (1.0 - dielectric);
+  float s = (1.0 - spec_alpha) * (sqrt(1.0 - spec_alpha) + spec_alpha);  // Frostbite's dominant direction
+  vec3 env = skyRadiance(normalize(mix(spec_n, spec_r, s)), prtSurface.x);
+  return kd * diffuse + scale * (env * e_spec * specularOcclusion() + sunSpec);
+}
+
+// GGX at the representative point of a view's disc (Karis 2013), widened and normalised; times
+// pi (the lights' power uniform is P / pi).
+vec3 sunSpecular(vec3 c, float angle) {
+  float cr = dot(c, spec_r);
+  vec3 l = c;
+  if (cr < cos(angle)) {
+    vec3 t = spec_r - cr * c;
+    float tl = length(t);
+    l = tl > 1e-6 ? normalize(c * cos(angle) + (t / tl) * sin(angle)) : c;
+  } else {
+    l = spec_r;
+  }
+  float nl = dot(spec_n, l);
+  if (nl <= 0.0) return vec3(0.0);
+  float a2 = spec_alpha * spec_alpha;
+  float wide = min(1.0, spec_alpha + 0.5 * angle);
+  vec3 h = normalize(spec_v + l);
+  float nh = max(dot(spec_n, h), 0.0);
+  float q = nh * nh * (wide * wide - 1.0) + 1.0;
+  float d = wide * wide / (3.14159265 * q * q) * (a2 / (wide * wide));
+  float lv = 0.5 * (sqrt(1.0 + a2 * (1.0 / (spec_nv * spec_nv) - 1.0)) - 1.0);
+  float ll = 0.5 * (sqrt(1.0 + a2 * (1.0 / (nl * nl) - 1.0)) - 1.0);
+  float vis = 1.0 / ((1.0 + lv + ll) * 4.0 * spec_nv * nl);
+  vec3 f = spec_f0 + (1.0 - spec_f0) * pow(1.0 - max(dot(spec_v, h), 0.0), 5.0);
+  vec3 comp = 1.0 + spec_f0 * (1.0 / max(spec_ab.x + spec_ab.y, 1e-4) - 1.0);
+  return 3.14159265 * d * vis * nl * f * comp;
+}
+`;
+
+/** The material's specular uniforms (sky, table and rows shared, the surface's own). */
+export function specularUniforms(shared, surface) {
+  return {
+    prtSkyTx: shared.skyTx,
+    prtBrdfTx: shared.brdfTx,
+    prtSkyRows: shared.skyRows,
+    prtSkySize: shared.skySize,
+    prtSurface: { value: new THREE.Vector4(surface.roughness, surface.metallic, surface.f0, 1.0) },
+    prtFrame: { value: new THREE.Matrix3() },
+    prtBands: { value: surface.bands },
+    prtOpen: { value: surface.open },
+  };
+}
