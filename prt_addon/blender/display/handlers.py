@@ -1,10 +1,10 @@
-"""App handlers of the display (file load, geometry updates) and its colour timer; all removed on unregister."""
+"""App handlers of the display (file load, geometry updates) and its timers; all removed on unregister."""
 
 import bpy
 from bpy.app.handlers import persistent
 
 from .. import caches
-from . import colour, draw
+from . import colour, draw, switches
 
 
 @persistent
@@ -47,9 +47,11 @@ def register_handlers():
             handlers.append(func)
     draw.add_draw_handler()
     colour.register_timer()
+    switches.register_timer()
 
 
 def unregister_handlers():
+    switches.unregister_timer()
     colour.unregister_timer()
     draw.remove_draw_handler()
     for name, func in _APP_HANDLERS:

@@ -10,14 +10,7 @@ import bpy
 from ...core.lights.extraction import MAX_LIGHTS
 from ..bake.presets import CYCLES_DIFFUSE_BOUNCES
 from ..bake.settings import ADAPTIVE, MAX_BOUNCES, MAX_ORDER, MAX_RESOLUTION, MIN_SAMPLES
-from ..display import redraw
 from ..world.projection import MAX_ORDER as MAX_WORLD_ORDER
-
-
-def _redraw_views(_group, _context):
-    """Update callback of the display switches: the 3D Views redraw now, also when set from Python
-    (a setting changed in the sidebar redraws only the sidebar)."""
-    redraw.tag_redraw()
 
 
 class PRT_PG_scene(bpy.types.PropertyGroup):
@@ -27,7 +20,6 @@ class PRT_PG_scene(bpy.types.PropertyGroup):
         name="Show PRT",
         description="Draw baked objects with PRT lighting in the 3D View",
         default=True,
-        update=_redraw_views,
     )
 
 
@@ -258,7 +250,6 @@ class PRT_PG_display(bpy.types.PropertyGroup):
         description="Draw a line from the 3D cursor toward each light split off the world, in the light's "
         "colour, with a circle of its angular size at the tip; it turns with the Lighting Rotation",
         default=False,
-        update=_redraw_views,
     )
 
 
