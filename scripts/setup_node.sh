@@ -19,7 +19,7 @@ if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
 fi
 lock="$here/web/package-lock.json"
 stamp="$dest/.package-lock.sha256"
-want="$(sha256sum "$lock" "$here/web/package.json" | sha256sum | cut -d' ' -f1)"
+want="$(cat "$lock" "$here/web/package.json" | sha256sum | cut -d' ' -f1)"  # (contents only: every clone shares one install)
 if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ] || [ ! -d "$dest/node_modules" ]; then
     echo "setup_node.sh: npm ci into $dest" >&2
     mkdir -p "$dest"
