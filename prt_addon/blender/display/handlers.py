@@ -11,6 +11,7 @@ from . import colour, draw, switches
 def _on_load_pre(*_args):
     draw.remove_draw_handler()
     caches.clear_all()  # (caches are keyed by pointers, which a new file reuses)
+    switches.forget()
 
 
 @persistent

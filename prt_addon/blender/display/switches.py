@@ -45,8 +45,13 @@ def _poll():
     return POLL_INTERVAL
 
 
-def register_timer():
+def forget():
+    """Drop what the looks saw (a file is loading: its scenes may reuse the old pointers)."""
     _seen.clear()
+
+
+def register_timer():
+    forget()
     if not bpy.app.timers.is_registered(_poll):
         bpy.app.timers.register(_poll, first_interval=0.0, persistent=True)
 
@@ -54,4 +59,4 @@ def register_timer():
 def unregister_timer():
     if bpy.app.timers.is_registered(_poll):
         bpy.app.timers.unregister(_poll)
-    _seen.clear()
+    forget()
