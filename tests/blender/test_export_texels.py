@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from helpers.fixtures_web import TEXEL_RESOLUTION
 from helpers.gltf import VALIDATE_JS, _read_glb
+from helpers.meshes import white_world
 from helpers.png import _decode_png
 
 BUDGET = 0.005  # of the mean radiance (what quantisation may add against render_view, docs/export.md)
@@ -60,7 +61,7 @@ def test_a_texel_bake_with_bounces_exports_its_bounce_planes(bpy_module, empty_s
     quantisation step. (First in the module: it empties the scene the texel demo then builds.)"""
     from prt_addon import api
     from prt_addon.blender.export import glb
-    from prt_addon.blender.scene import lighting, storage, texel_storage
+    from prt_addon.blender.scene import storage, texel_storage
 
     bpy = bpy_module
     objs = []
@@ -72,9 +73,8 @@ def test_a_texel_bake_with_bounces_exports_its_bounce_planes(bpy_module, empty_s
     green.use_nodes = True
     green.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.2, 0.7, 0.3, 1.0)
     objs[0].data.materials.append(green)
-    uniform = np.zeros((9, 3))
-    uniform[0] = np.sqrt(4.0 * np.pi)
-    lighting.set_light_override(empty_scene, uniform)
+    white_world(bpy, empty_scene)
+    api.project_world(order=3, split_lights=False)
     report = api.bake(objs, order=3, samples=32, target="TEXELS", uv_map="UVMap", resolution=16, bounces=1)
     assert report.bounce_channels == 3
     for transfer, bits in (("snorm16", 16), ("snorm8", 8)):
