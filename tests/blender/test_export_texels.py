@@ -1,4 +1,4 @@
-"""Texel bakes in the .glb: the lightmap UV map as a TEXCOORD, the transfer as 8-bit PNG planes that decode to the bake's coefficients, the radiance error the encoding adds."""
+"""Texel bakes in the .glb: the lightmap UV map as a TEXCOORD, the transfer (and bounced transfer) as 8-bit PNG planes that decode to the bake's coefficients, the radiance error the encoding adds."""
 
 import json
 import os
@@ -8,18 +8,22 @@ import numpy as np
 import pytest
 from helpers.fixtures_web import TEXEL_RESOLUTION
 from helpers.gltf import VALIDATE_JS, _read_glb
+from helpers.meshes import white_world
 from helpers.png import _decode_png
 
 BUDGET = 0.005  # of the mean radiance (what quantisation may add against render_view, docs/export.md)
 
 
-def _planes(document, binary, meta):
-    """The decoded coefficients (res, res, 4 G) of a texel mesh's PNG planes, glTF frame, row 0
-    the top (v_glTF = 0), by docs/export.md's rule."""
+def _planes(document, binary, meta, textures=None, decode=None):
+    """The decoded coefficients (res, res, 4 G) of a texel mesh's PNG planes (the direct ones, or
+    `textures` and `decode` of a bounce channel), glTF frame, row 0 the top (v_glTF = 0), by
+    docs/export.md's rule."""
     texel = meta["texel"]
     res, (tiles_x, _tiles_y) = texel["resolution"], texel["tiles"]
+    textures = texel["textures"] if textures is None else textures
+    decode = texel["decode"] if decode is None else decode
     planes = []
-    for index in texel["textures"]:
+    for index in textures:
         view = document["bufferViews"][document["images"][document["textures"][index]["source"]]["bufferView"]]
         data = binary[view.get("byteOffset", 0) : view.get("byteOffset", 0) + view["byteLength"]]
         planes.append(_decode_png(data).astype(np.float64))
@@ -27,9 +31,9 @@ def _planes(document, binary, meta):
     for plane in planes:
         q = q * 256.0 + plane
     q /= 256.0 ** len(planes) - 1
-    groups = len(texel["decode"])
+    groups = len(decode)
     out = np.empty((res, res, 4 * groups))
-    for g, entry in enumerate(texel["decode"]):
+    for g, entry in enumerate(decode):
         row, col = divmod(g, tiles_x)
         tile = q[row * res : (row + 1) * res, col * res : (col + 1) * res]
         out[..., 4 * g : 4 * g + 4] = np.asarray(entry["offset"]) + np.asarray(entry["scale"]) * tile
@@ -40,6 +44,67 @@ def _radiance(coeffs, lighting):
     """max(0, L . t) per texel and channel (glTF frame both)."""
     n2 = min(len(lighting), coeffs.shape[-1])
     return np.maximum(np.einsum("...i,ic->...c", coeffs[..., :n2], np.asarray(lighting)[:n2]), 0.0)
+
+
+def _in_gltf_frame(values, n2):
+    """(res, res, 4 G) stored coefficients rotated into glTF's frame, rows flipped (row 0 the top)."""
+    from prt_addon.blender.export import gltf
+
+    out = values.astype(np.float64)
+    out[..., :n2] = gltf.to_gltf_frame(out[..., :n2].reshape(-1, n2).T).T.reshape(out.shape[:2] + (n2,))
+    return out[::-1]
+
+
+def test_a_texel_bake_with_bounces_exports_its_bounce_planes(bpy_module, empty_scene, tmp_path):
+    """A green floor and a grey wall baked per texel with a bounce (3 channels): the export no
+    longer refuses it, and each channel's planes decode to its stored bounce tiles within half a
+    quantisation step. (First in the module: it empties the scene the texel demo then builds.)"""
+    from prt_addon import api
+    from prt_addon.blender.export import glb
+    from prt_addon.blender.scene import storage, texel_storage
+
+    bpy = bpy_module
+    objs = []
+    for name, location, rotation in (("Floor", (0, 0, 0), (0, 0, 0)), ("Wall", (0, 2, 1), (np.pi / 2, 0, 0))):
+        bpy.ops.mesh.primitive_plane_add(size=4.0, location=location, rotation=rotation)
+        bpy.context.object.name = name
+        objs.append(bpy.context.object)
+    green = bpy.data.materials.new("PRT test green")
+    green.use_nodes = True
+    green.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.2, 0.7, 0.3, 1.0)
+    objs[0].data.materials.append(green)
+    white_world(bpy, empty_scene)
+    api.project_world(order=3, split_lights=False)
+    report = api.bake(objs, order=3, samples=32, target="TEXELS", uv_map="UVMap", resolution=16, bounces=1)
+    assert report.bounce_channels == 3
+    for transfer, bits in (("snorm16", 16), ("snorm8", 8)):
+        path = api.export_gltf(str(tmp_path / f"{transfer}.glb"), objs, environment_size=0, transfer=transfer)
+        document, _acc = _read_glb(path)
+        binary = glb.read(path)[1][0][1]
+        metas = {m["name"]: m["extras"]["PRT_lighting"] for m in document["meshes"]}
+        for obj in objs:
+            bake, _ = storage.read_bake_record(obj.data)
+            meta = metas[obj.data.name]
+            assert meta["version"] == 3 and meta["bounce_channels"] == 3 and meta["bounces"] == 1
+            texel = meta["texel"]
+            assert len(texel["bounce_textures"]) == 3 and len(texel["bounce_decode"]) == 3
+            stored = texel_storage.read_texel_bounce(bake, padded=True)
+            n2 = bake.order**2
+            for c, (textures, decode) in enumerate(zip(texel["bounce_textures"], texel["bounce_decode"])):
+                assert len(textures) == bits // 8 and len(decode) == bake.count
+                assert not set(textures) & set(texel["textures"])
+                expected = _in_gltf_frame(stored[:, :, c], n2)
+                decoded = _planes(document, binary, meta, textures, decode)
+                steps = np.array([e["scale"] for e in decode]).ravel() / (2.0**bits - 1)
+                assert np.all(np.abs(decoded - expected) <= 0.5 * steps + 1e-7)
+                assert np.ptp(expected[..., 0]) > 0  # (the bounce varies over the map: not a constant)
+            direct = _planes(document, binary, meta)
+            want = _in_gltf_frame(texel_storage.read_texel_transfer(bake, padded=True), n2)
+            steps = np.array([e["scale"] for e in texel["decode"]]).ravel() / (2.0**bits - 1)
+            assert np.all(np.abs(direct - want) <= 0.5 * steps + 1e-7)  # (the direct planes as before)
+        # The wall's bounce is the green floor's: its green channel is not its red one.
+        wall = metas[objs[1].data.name]["texel"]["bounce_decode"]
+        assert wall[0] != wall[1]
 
 
 def test_a_texel_bake_exports_as_png_planes_and_its_uv_map(texel_demo_scene, tmp_path, capsys, validator_modules):

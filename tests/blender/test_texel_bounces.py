@@ -1,4 +1,4 @@
-"""Interreflected texel bakes: texel nodes against a dense vertex bake of the same room, storage and format, cancel, staleness, Auto, export refusal."""
+"""Interreflected texel bakes: texel nodes against a dense vertex bake of the same room, storage and format, cancel, staleness, Auto."""
 
 import numpy as np
 import pytest
@@ -192,16 +192,3 @@ def test_auto_bakes_coarse_meshes_per_texel_with_bounces(bpy_module, empty_scene
     assert floor.data["prt_bake"]["bounce_channels"] == 1
     assert ball.data["prt_bake"]["domain"] in ("POINT", "CORNER")
     assert ball.data["prt_bake"]["bounce_channels"] == 1
-
-
-def test_the_export_refuses_a_texel_bake_with_bounces(bpy_module, empty_scene, tmp_path):
-    bpy = bpy_module
-    quads = _corner(bpy)
-    _uniform(empty_scene)
-    api.bake(quads, order=2, samples=32, target="TEXELS", uv_map="UVMap", resolution=RES, bounces=1)
-    before = [_state(bpy, o) for o in quads]
-    path = tmp_path / "room.glb"
-    with pytest.raises(ValueError, match="texel bake has bounced light, which the export does not carry"):
-        api.export_gltf(str(path), quads, environment_size=0)
-    assert not path.exists() and not list(tmp_path.iterdir())
-    assert [_state(bpy, o) for o in quads] == before

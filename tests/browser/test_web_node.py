@@ -208,6 +208,16 @@ def test_format_checks_say_what_is_wrong():
         (dict(good, transfer_encoding="snorm16"), ["uv1"], "texel encoding 'snorm16' is unknown"),
         ({k: v for k, v in good.items() if k != "texel"}, ["uv1"], "has no texel block"),
     ]
+    # A bounced texel transfer: per channel its own planes and decode table.
+    bounced = dict(good, bounce_channels=1, texel=dict(texel, bounce_textures=[[1, 0]], bounce_decode=[decode]))
+    texel_cases += [
+        (bounced, ["uv1"], "ok"),
+        (dict(good, bounce_channels=1), ["uv1"], "declares bounced light without its bounce planes"),
+        (dict(bounced, bounce_channels=3), ["uv1"], "declares 3 bounce channels, it has 1"),
+        (dict(bounced, bounce_channels=2), ["uv1"], "has 2 bounce channels"),
+        (dict(bounced, texel=dict(bounced["texel"], bounce_textures=[[1]])), ["uv1"], "bounce 0 needs 2 texture(s)"),
+        (dict(bounced, texel=dict(bounced["texel"], bounce_decode=[[]])), ["uv1"], "bounce 0 has no complete decode"),
+    ]
     cases += [("transfer", meta, [], message) for meta, _uvs, message in texel_cases]
     checks = [{"kind": kind, "meta": meta, "attributes": a} for kind, meta, a, _m in cases]
     for check, (_meta, uvs, _m) in zip(checks[len(cases) - len(texel_cases) :], texel_cases, strict=True):

@@ -6,6 +6,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from helpers.fixtures_web import TEXEL_RESOLUTION
 from helpers.paths import ROOT
 from helpers.web import MEAN_TOLERANCE, P99_TOLERANCE, _compare, _turns_and_references
 
@@ -69,3 +70,62 @@ def test_the_plugin_draws_a_texel_bake_as_render_view(texel_demo_scene, browser_
     reference = references[0]
     ground = reference[..., 3] > 0
     assert np.ptp(reference[..., 1][ground]) > 0.5 * reference[..., 1][ground].mean()
+
+
+def test_the_plugin_draws_a_bounced_texel_bake_as_render_view(texel_demo_scene, browser_tools, tmp_path, capsys):
+    """A red Suzanne (per vertex) over the ground (per texel), both baked with 2 bounces: the
+    ground's three bounce channels go out as their own planes, and the page's relight of them is
+    render_view's image at two lighting rotations; the bounced light is visible (the direct-only
+    image is far off)."""
+    import bpy
+
+    from prt_addon import api
+    from prt_addon.blender.display import offscreen
+
+    assert offscreen.ensure_gpu()
+    scene = texel_demo_scene
+    suzanne, ground = scene.objects["Suzanne"], scene.objects["Ground"]
+    material = bpy.data.materials.new("PRT test red")
+    material.diffuse_color = (0.8, 0.15, 0.1, 1.0)
+    for node in material.node_tree.nodes if material.node_tree else []:
+        if node.bl_idname == "ShaderNodeBsdfPrincipled":
+            node.inputs["Base Color"].default_value = (0.8, 0.15, 0.1, 1.0)
+    suzanne.data.materials.append(material)
+    angles = [0.0, 2.1]
+    texels = dict(target="TEXELS", uv_map="Lightmap", resolution=TEXEL_RESOLUTION)
+    try:
+        api.bake([suzanne], order=8, samples=64, bounces=2)
+        report = api.bake([ground], order=8, samples=64, bounces=2, **texels)
+        assert report.bounce_channels == 3
+        glb = api.export_gltf(str(tmp_path / "bounced.glb"))
+        turns, references = _turns_and_references(scene, angles, WIDTH, HEIGHT)
+        api.bake([ground], order=8, samples=64, **texels)
+        direct_ground = api.render_view(scene, WIDTH, HEIGHT)
+    finally:
+        suzanne.data.materials.clear()
+        bpy.data.materials.remove(material)
+        api.bake([suzanne], order=8, samples=64)  # the module's scene as the other tests expect
+        api.bake([ground], order=8, samples=64, **texels)
+    files = [{"name": "bounced", "glb": glb}]
+    renders = [{"width": WIDTH, "height": HEIGHT, "name": "bounced", "turn": t} for t in turns]
+    info, images = _plugin_images(browser_tools, tmp_path, files, renders)
+    said = info["bounced"]["console"]
+    assert info["bounced"]["prt"] and not [m for m in said if m.startswith(("error", "pageerror"))], said
+    assert sorted(info["bounced"]["info"]["sources"]) == ["texel", "texture"], info["bounced"]["info"]
+    results = []
+    for t, image in enumerate(images):
+        file = tmp_path / f"bounced_{t}.f32"
+        image.astype(np.float32).tofile(file)
+        results.append(_compare(references[t], file, WIDTH, HEIGHT))
+    with capsys.disabled():
+        for angle, r in zip(angles, results):
+            print(
+                f"\nplugin vs render_view, bounced texels at {angle} rad: mean {100 * r['mean']:.3f} %, "
+                f"p99 {100 * r['p99']:.3f} %, coverage {100 * r['coverage']:.3f} %"
+            )
+    for r in results:
+        assert r["drawn"] > 0.3 and r["mean"] < MEAN_TOLERANCE and r["p99"] < P99_TOLERANCE, results
+    # The ground's bounced light shows: without it (Suzanne's bounces kept) the image is far off.
+    drawn = references[0][..., 3] > 0
+    gap = np.abs(direct_ground[..., :3] - references[0][..., :3]).max(axis=-1)[drawn].mean()
+    assert gap > 10 * MEAN_TOLERANCE * references[0][..., :3][drawn].mean()

@@ -142,7 +142,7 @@ export function readTransfer(meta, geometry, json = {}) {
 }
 
 /** A texel transfer's description (docs/export.md, "Texel transfer") checked against the geometry
- * and the document's textures: {order, count, names: [], channels: 0, encoding, texel, uvName}. */
+ * and the document's textures: {order, count, names: [], channels, encoding, texel, uvName}. */
 function readTexelTransfer(meta, geometry, json, order, count) {
   const texel = meta.texel;
   if (!texel || typeof texel !== 'object') throw new FormatError('its texel transfer has no texel block');
@@ -152,7 +152,28 @@ function readTexelTransfer(meta, geometry, json, order, count) {
   if (!Number.isInteger(resolution) || resolution < 1) throw new FormatError('its texel resolution is bad');
   if (!Array.isArray(tiles) || tiles.length !== 2 || !tiles.every((t) => Number.isInteger(t) && t > 0))
     throw new FormatError('its texel tiles are bad');
-  if ((meta.bounce_channels || 0) !== 0) throw new FormatError('its texel transfer declares bounced light');
+  const channels = meta.bounce_channels || 0;
+  if (![0, 1, 3].includes(channels)) throw new FormatError(`its texel transfer has ${channels} bounce channels`);
+  const bounceTextures = channels ? texel.bounce_textures : [];
+  const bounceDecode = channels ? texel.bounce_decode : [];
+  if (!Array.isArray(bounceTextures) || !Array.isArray(bounceDecode))
+    throw new FormatError('its texel transfer declares bounced light without its bounce planes');
+  if (bounceTextures.length !== channels || bounceDecode.length !== channels)
+    throw new FormatError(`its texel transfer declares ${channels} bounce channels, it has ${bounceTextures.length}`);
+  const parts = [[textures, decode, 'transfer'], ...bounceTextures.map((t, c) => [t, bounceDecode[c], `bounce ${c}`])];
+  for (const [planes, table, what] of parts) checkTexelPart(planes, table, what, encoding, count, json);
+  if (count > tiles[0] * tiles[1]) throw new FormatError(`its ${count} tiles do not fit its tile grid`);
+  const uvName = texcoord === 0 ? 'uv' : `uv${texcoord}`;
+  const uv = Number.isInteger(texcoord) && texcoord >= 0 ? geometry.attributes[uvName] : undefined;
+  const vertices = geometry.attributes.position ? geometry.attributes.position.count : 0;
+  if (!uv || uv.itemSize !== 2 || uv.count !== vertices)
+    throw new FormatError(`its lightmap UV map TEXCOORD_${texcoord} is missing`);
+  return { order, count, names: [], channels, encoding, texel, uvName };
+}
+
+/** One part of a texel transfer (the direct one or a bounce channel's): its planes are textures
+ * of the file with an image, its decode table has one entry per tile. */
+function checkTexelPart(textures, decode, what, encoding, count, json) {
   const known = (json.textures || []).length;
   const images = json.images || [];
   if (
@@ -167,7 +188,7 @@ function readTexelTransfer(meta, geometry, json, order, count) {
         images[json.textures[t].source].bufferView !== undefined,
     )
   )
-    throw new FormatError(`its ${encoding} transfer needs ${TEXEL_ENCODINGS[encoding]} texture(s) in the file`);
+    throw new FormatError(`its ${encoding} ${what} needs ${TEXEL_ENCODINGS[encoding]} texture(s) in the file`);
   if (
     !(
       Array.isArray(decode) &&
@@ -175,12 +196,5 @@ function readTexelTransfer(meta, geometry, json, order, count) {
       decode.every((d) => d && isVector(d.offset, 4) && isVector(d.scale, 4))
     )
   )
-    throw new FormatError(`its texel transfer has no complete decode table (${count} tiles)`);
-  if (count > tiles[0] * tiles[1]) throw new FormatError(`its ${count} tiles do not fit its tile grid`);
-  const uvName = texcoord === 0 ? 'uv' : `uv${texcoord}`;
-  const uv = Number.isInteger(texcoord) && texcoord >= 0 ? geometry.attributes[uvName] : undefined;
-  const vertices = geometry.attributes.position ? geometry.attributes.position.count : 0;
-  if (!uv || uv.itemSize !== 2 || uv.count !== vertices)
-    throw new FormatError(`its lightmap UV map TEXCOORD_${texcoord} is missing`);
-  return { order, count, names: [], channels: 0, encoding, texel, uvName };
+    throw new FormatError(`its texel ${what} has no complete decode table (${count} tiles)`);
 }

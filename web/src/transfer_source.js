@@ -210,25 +210,39 @@ async function planeTexture(parser, index) {
  * `ready` resolves when the planes are loaded.
  */
 export function texelTransferSource(parser, geometry, spec) {
-  const { resolution, tiles, textures, decode } = spec.texel;
-  const planes = textures.length;
+  const { resolution, tiles } = spec.texel;
+  // Part 0 the direct transfer, part 1 + c bounce channel c's (docs/export.md): each its own
+  // planes and decode table, laid out in the same tiles; relight.js's index k of block b is part b.
+  const parts = [[spec.texel.textures, spec.texel.decode]];
+  for (let c = 0; c < spec.channels; c++) parts.push([spec.texel.bounce_textures[c], spec.texel.bounce_decode[c]]);
+  const planes = parts[0][0].length;
   const uvAttribute = 'prtLightmapUv';
   geometry.setAttribute(uvAttribute, geometry.getAttribute(spec.uvName));
+  const decode = parts.flatMap(([, table]) => table);
   const vec4s = (key) => decode.map((entry) => new THREE.Vector4(...entry[key]));
   const uniforms = {
     prtDecodeOffset: { value: vec4s('offset') },
     prtDecodeScale: { value: vec4s('scale') },
   };
-  textures.forEach((_t, p) => (uniforms[`prtPlane${p}`] = { value: null }));
+  const samplers = parts.flatMap(([textures], b) => textures.map((_t, p) => `prtPlane${b}_${p}`));
+  samplers.forEach((name) => (uniforms[name] = { value: null }));
   const levels = 256 ** planes - 1;
-  const bytes = textures.map((_t, p) => `floor(texelFetch(prtPlane${p}, q, 0) * 255.0 + 0.5)`);
-  let combined = bytes[0];
-  for (let p = 1; p < planes; p++) combined = `(${combined}) * 256.0 + ${bytes[p]}`;
+  const lookup = (b) => {
+    const bytes = parts[b][0].map((_t, p) => `floor(texelFetch(prtPlane${b}_${p}, q, 0) * 255.0 + 0.5)`);
+    let combined = bytes[0];
+    for (let p = 1; p < planes; p++) combined = `(${combined}) * 256.0 + ${bytes[p]}`;
+    return `
+vec4 prtTexel${b}(int k, ivec2 p) {
+  ivec2 q = ivec2((k % ${tiles[0]}) * ${resolution}, (k / ${tiles[0]}) * ${resolution}) + p;
+  int d = ${b * spec.count} + k;
+  return prtDecodeOffset[d] + prtDecodeScale[d] * ((${combined}) / ${levels.toFixed(1)});
+}`;
+  };
   const source = {
     kind: 'texel',
     stage: 'texel',
     count: spec.count,
-    blocks: 1,
+    blocks: parts.length,
     resolution,
     uvAttribute,
     uniforms,
@@ -239,21 +253,19 @@ export function texelTransferSource(parser, geometry, spec) {
     lightFor: plainLight,
     relightSize: [resolution, resolution],
     relightGlsl: `
-${textures.map((_t, p) => `uniform sampler2D prtPlane${p};`).join('\n')}
-uniform vec4 prtDecodeOffset[${spec.count}];
-uniform vec4 prtDecodeScale[${spec.count}];
-vec4 prtTexel(int k, ivec2 p) {
-  ivec2 q = ivec2((k % ${tiles[0]}) * ${resolution}, (k / ${tiles[0]}) * ${resolution}) + p;
-  return prtDecodeOffset[k] + prtDecodeScale[k] * ((${combined}) / ${levels.toFixed(1)});
-}`,
-    relightFetch: (k) => `prtTexel(${k}, p)`,
+${samplers.map((name) => `uniform sampler2D ${name};`).join('\n')}
+uniform vec4 prtDecodeOffset[${decode.length}];
+uniform vec4 prtDecodeScale[${decode.length}];
+${parts.map((_p, b) => lookup(b)).join('\n')}`,
+    relightFetch: (k) => `prtTexel${Math.floor(k / spec.count)}(${k % spec.count}, p)`,
     dispose: () => {
-      textures.forEach((_t, p) => uniforms[`prtPlane${p}`].value && uniforms[`prtPlane${p}`].value.dispose());
+      samplers.forEach((name) => uniforms[name].value && uniforms[name].value.dispose());
       geometry.deleteAttribute(uvAttribute);
     },
   };
-  source.ready = Promise.all(textures.map((index) => planeTexture(parser, index))).then((loaded) => {
-    loaded.forEach((texture, p) => (uniforms[`prtPlane${p}`].value = texture));
+  const indices = parts.flatMap(([textures]) => textures);
+  source.ready = Promise.all(indices.map((index) => planeTexture(parser, index))).then((loaded) => {
+    loaded.forEach((texture, i) => (uniforms[samplers[i]].value = texture));
   });
   return source;
 }

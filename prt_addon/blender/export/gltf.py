@@ -111,11 +111,6 @@ def _plan(objects, scene):
                 f"'{obj.name}': the bake is stale ({state.reason}), so the export would not match the mesh"
             )
         bake = state.bake if state.status == "FRESH" else None
-        if bake is not None and bake.domain == "TEXEL" and bake.channels:
-            raise ExportError(
-                f"'{obj.name}': its texel bake has bounced light, which the export does not carry yet: "
-                "bake it with Bounces 0, or with Target Vertices, to export it"
-            )
         plan.append((obj, bake))
     if not any(bake is not None for _o, bake in plan):
         raise ExportError("nothing to export: none of the objects holds a PRT bake (bake them first)")

@@ -4,7 +4,8 @@ Per baked glTF mesh of a texel bake: the coefficients rotated into glTF's frame,
 coefficient (core.transfer.texel_encoding), each plane laid out in the bake's tiles
 (scene.texel_storage) with every tile's rows flipped so the PNG's top row is glTF's v = 0 (the
 exporter writes TEXCOORD_i = (u, 1 - v) of the mesh's i-th UV map), written as a PNG image with
-a texture (nearest, clamp) in the BIN chunk. The mesh's extras get `texel`. docs/export.md,
+a texture (nearest, clamp) in the BIN chunk; a bake with bounces adds per bounce channel its
+bounced transfer's planes, encoded alike. The mesh's extras get `texel`. docs/export.md,
 "Texel transfer", is the format.
 """
 
@@ -31,10 +32,10 @@ def texcoord_index(mesh, bake):
     return index
 
 
-def planes(bake, to_gltf_frame, encoding):
-    """([PNG bytes per plane], [{"offset": [4], "scale": [4]} per tile], (tiles_x, tiles_y))."""
-    n2 = bake.order * bake.order
-    values = texel_storage.read_texel_transfer(bake, padded=True).astype(np.float64)
+def _encode(values, n2, to_gltf_frame, encoding):
+    """([PNG bytes per plane], [{"offset": [4], "scale": [4]} per tile]) of one part's (res, res,
+    4 G) coefficients (the direct transfer or one bounce channel's), rotated into glTF's frame."""
+    values = values.astype(np.float64)
     res = values.shape[0]
     rotated = to_gltf_frame(values[..., :n2].reshape(-1, n2).T).T
     values[..., :n2] = rotated.reshape(res, res, n2)
@@ -45,11 +46,30 @@ def planes(bake, to_gltf_frame, encoding):
         # and row g // tiles_x from the top.
         atlas = texel_storage.to_tiles(plane[::-1].astype(np.float32))
         pngs.append(rgbd_png.png_bytes(atlas.astype(np.uint8)))
+    groups = values.shape[2] // 4
     table = [
         {"offset": offset[4 * g : 4 * g + 4].tolist(), "scale": scale[4 * g : 4 * g + 4].tolist()}
-        for g in range(bake.count)
+        for g in range(groups)
     ]
+    return pngs, table
+
+
+def planes(bake, to_gltf_frame, encoding):
+    """([PNG bytes per plane], [{"offset": [4], "scale": [4]} per tile], (tiles_x, tiles_y)) of the
+    direct transfer."""
+    values = texel_storage.read_texel_transfer(bake, padded=True)
+    pngs, table = _encode(values, bake.order * bake.order, to_gltf_frame, encoding)
     return pngs, table, texel_storage.tile_grid(bake.count)
+
+
+def bounce_planes(bake, to_gltf_frame, encoding):
+    """Per bounce channel (none without bounces) ([PNG bytes per plane], [decode per tile]): the
+    bounced transfer's tiles, encoded and laid out as the direct ones, quantised on their own."""
+    bounced = texel_storage.read_texel_bounce(bake, padded=True)
+    if bounced is None:
+        return []
+    n2 = bake.order * bake.order
+    return [_encode(bounced[:, :, c], n2, to_gltf_frame, encoding) for c in range(bounced.shape[2])]
 
 
 def write(document, chunks, mesh_meta, pngs, name):
@@ -87,17 +107,21 @@ def annotate(document, chunks, baked, to_gltf_frame, encoding, extras_key):
     document and chunks (changed in place)."""
     for index, (mesh, bake) in sorted(baked.items()):
         meta = document["meshes"][index]["extras"][extras_key]
+        name = document["meshes"][index].get("name", str(index))
         pngs, table, grid = planes(bake, to_gltf_frame, encoding)
-        textures = write(document, chunks, meta, pngs, document["meshes"][index].get("name", str(index)))
-        meta.update(
-            version=VERSION,
-            transfer_encoding=encoding,
-            texel={
-                "texcoord": texcoord_index(mesh, bake),
-                "uv_map": bake.uv_map,
-                "resolution": bake.resolution,
-                "tiles": list(grid),
-                "textures": textures,
-                "decode": table,
-            },
-        )
+        textures = write(document, chunks, meta, pngs, name)
+        texel = {
+            "texcoord": texcoord_index(mesh, bake),
+            "uv_map": bake.uv_map,
+            "resolution": bake.resolution,
+            "tiles": list(grid),
+            "textures": textures,
+            "decode": table,
+        }
+        bounced = bounce_planes(bake, to_gltf_frame, encoding)
+        if bounced:
+            texel["bounce_textures"] = [
+                write(document, chunks, meta, part, f"{name} bounce{c}") for c, (part, _t) in enumerate(bounced)
+            ]
+            texel["bounce_decode"] = [part_table for _p, part_table in bounced]
+        meta.update(version=VERSION, transfer_encoding=encoding, texel=texel)
