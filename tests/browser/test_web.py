@@ -10,6 +10,7 @@ from helpers.web import (
     _run_viewer,
     _tool,
     _turns_and_references,
+    coloured_material,
 )
 
 # --- the viewer in headless Chromium ------------------------------------------------------------
@@ -35,11 +36,7 @@ def test_viewer_matches_render_view(demo_scene, browser_tools, tmp_path, lights,
         lighting.set_lights_override(scene, [])
         # Also a material's base colour (the ground keeps none: Blender's default 0.8) and a
         # mirrored, turned node: both renderers draw the same data, so the bake need not match.
-        material = bpy.data.materials.new("PRT test clay")
-        material.diffuse_color = (0.9, 0.35, 0.2, 1.0)
-        for node in material.node_tree.nodes if material.node_tree else []:
-            if node.bl_idname == "ShaderNodeBsdfPrincipled":
-                node.inputs["Base Color"].default_value = (0.9, 0.35, 0.2, 1.0)
+        material = coloured_material(bpy, "PRT test clay", (0.9, 0.35, 0.2))
         suzanne.data.materials.append(material)
         ground.scale, ground.rotation_euler = (-1.0, 1.0, 1.0), (0.0, 0.0, 0.4)
     try:

@@ -2,7 +2,15 @@
 
 import numpy as np
 import pytest
-from helpers.web import COVERAGE_TOLERANCE, MEAN_TOLERANCE, P99_TOLERANCE, _compare, _run_viewer, _turns_and_references
+from helpers.web import (
+    COVERAGE_TOLERANCE,
+    MEAN_TOLERANCE,
+    P99_TOLERANCE,
+    _compare,
+    _run_viewer,
+    _turns_and_references,
+    coloured_material,
+)
 
 
 @pytest.mark.gpu
@@ -13,11 +21,7 @@ def test_viewer_draws_a_bounced_bake(demo_scene, browser_tools, tmp_path, capsys
 
     scene = demo_scene
     suzanne, ground = scene.objects["Suzanne"], scene.objects["Ground"]
-    material = bpy.data.materials.new("PRT test green ground")
-    material.diffuse_color = (0.2, 0.7, 0.3, 1.0)
-    for node in material.node_tree.nodes if material.node_tree else []:
-        if node.bl_idname == "ShaderNodeBsdfPrincipled":
-            node.inputs["Base Color"].default_value = (0.2, 0.7, 0.3, 1.0)
+    material = coloured_material(bpy, "PRT test green ground", (0.2, 0.7, 0.3))
     ground.data.materials.append(material)
     width, height = 320, 240
     try:

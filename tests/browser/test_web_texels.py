@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from helpers.fixtures_web import TEXEL_RESOLUTION
 from helpers.paths import ROOT
-from helpers.web import MEAN_TOLERANCE, P99_TOLERANCE, _compare, _turns_and_references
+from helpers.web import MEAN_TOLERANCE, P99_TOLERANCE, _compare, _turns_and_references, coloured_material
 
 pytestmark = pytest.mark.gpu  # (render_view draws the references with the GPU)
 
@@ -85,11 +85,7 @@ def test_the_plugin_draws_a_bounced_texel_bake_as_render_view(texel_demo_scene, 
     assert offscreen.ensure_gpu()
     scene = texel_demo_scene
     suzanne, ground = scene.objects["Suzanne"], scene.objects["Ground"]
-    material = bpy.data.materials.new("PRT test red")
-    material.diffuse_color = (0.8, 0.15, 0.1, 1.0)
-    for node in material.node_tree.nodes if material.node_tree else []:
-        if node.bl_idname == "ShaderNodeBsdfPrincipled":
-            node.inputs["Base Color"].default_value = (0.8, 0.15, 0.1, 1.0)
+    material = coloured_material(bpy, "PRT test red", (0.8, 0.15, 0.1))
     suzanne.data.materials.append(material)
     angles = [0.0, 2.1]
     texels = dict(target="TEXELS", uv_map="Lightmap", resolution=TEXEL_RESOLUTION)

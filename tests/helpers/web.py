@@ -116,3 +116,13 @@ def _export(scene, path, lights):
         return api.export_gltf(str(path)), lighting.world_lights(scene)
     finally:
         lighting.set_lights_override(scene, None)
+
+
+def coloured_material(bpy, name, rgb):
+    """A new material of this colour in the viewport and, when it has one, on its Principled BSDF."""
+    material = bpy.data.materials.new(name)
+    material.diffuse_color = (*rgb, 1.0)
+    for node in material.node_tree.nodes if material.node_tree else []:
+        if node.bl_idname == "ShaderNodeBsdfPrincipled":
+            node.inputs["Base Color"].default_value = (*rgb, 1.0)
+    return material
