@@ -333,7 +333,6 @@ def step():
         result["after_cancel"] = prt_bytes()
         result["threads_after_cancel"] = bake_threads()
         finish()
-        return None
     return None
 
 
@@ -345,8 +344,9 @@ def same(a, b):
 def verdict():
     r = result
     bake_attrs = {k for mesh in r.get("after_bake", {}).values() for k in mesh if k != "record"}
-    report = r.get("report", {})  # order 4: 4 attributes of direct transfer, 4 more per bounced channel
+    report = r.get("report", {})  # order 4: 4 attributes of direct transfer, 4 per bounced channel, 4 back
     bounced_blocks = report.get("bounce_channels", 0) if report.get("bounces") else 0
+    backs_baked = int(any(json.loads(m["record"] or "{}").get("back", 0) for m in r.get("after_bake", {}).values()))
     long_samples = r.get("progress_samples_long_bake", [])
     drawn = {phase for phase, lights in r.get("markers_drawn", []) if lights}  # phases with markers drawn
     markers_turn = bool(drawn & {"sidebar", "display"} and drawn & {"long", "cancel"})  # before, after the turn
@@ -359,7 +359,7 @@ def verdict():
         "invoke() starts a modal bake": r.get("invoke") == ["RUNNING_MODAL"],
         "the modal bake finishes with Embree": bool(r.get("report", {}).get("ok"))
         and r.get("report", {}).get("backend") == "EMBREE"
-        and len(bake_attrs) == 4 * (1 + bounced_blocks)
+        and len(bake_attrs) == 4 * (1 + bounced_blocks + backs_baked)
         and bool(r.get("after_bake"))
         and all(mesh["record"] is not None for mesh in r["after_bake"].values()),
         "no worker thread left after the bake": r.get("threads_after_bake") == [],
