@@ -5,7 +5,6 @@ Blender's event loop: a bake, one undo and one redo, the display with its light 
 (real_blender_colour.py), a long bake cancelled by a simulated Esc while this script's timers sample its progress.
 Writes a verdict per check to RESULT_JSON."""
 
-import ctypes
 import json
 import os
 import sys
@@ -17,6 +16,8 @@ import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import real_blender_colour
+import real_blender_embree
+import real_blender_shots
 
 # Every check, in order; real_blender_check.sh reads it from the source (all fail without a result or set-up).
 CHECKS = (
@@ -32,6 +33,7 @@ CHECKS = (
     "the sidebar's PRT tab draws",
     "the overlay shows the view transform as Blender applies it",
     "the light directions draw in the viewport and turn with the lighting",
+    "the viewport draws the turned lighting within 2 s (Suzanne changes on screen)",
     "progress advances between timer events (the UI runs)",
     "Esc cancels within 1 s",
     "a cancelled bake leaves the attributes as they were",
@@ -44,10 +46,6 @@ argv = sys.argv[sys.argv.index("--") + 1 :]
 ZIP, RESULT = argv[0], argv[1]
 MODULE = "bl_ext.user_default.prt_lighting"
 result = {"blender": bpy.app.version_string, "python": sys.version.split()[0], "log": []}
-
-
-class DlInfo(ctypes.Structure):  # dladdr's Dl_info
-    _fields_ = [(n, ctypes.c_char_p if "name" in n else ctypes.c_void_p) for n in ("fname", "fbase", "sname", "saddr")]
 
 
 class SetupError(Exception):
@@ -129,36 +127,8 @@ def install():
 
 
 def setup():
-    import numpy as np
-
     install()
-    raytrace, buffers = mod("core.trace.raytrace"), mod("core.trace.embree_buffers")
-    result["embree_available"] = bool(raytrace.EMBREE_AVAILABLE)
-    result["embree_import_error"] = str(getattr(raytrace, "EMBREE_IMPORT_ERROR", ""))
-    if raytrace.EMBREE_AVAILABLE:
-        import embreex
-
-        result["embreex_file"] = embreex.__file__
-        result["shared_buffers_available"] = bool(buffers.available())
-        with open("/proc/self/maps") as f:
-            result["embree_libraries_mapped"] = sorted({line.split()[-1] for line in f if "embree" in line})
-        # Shared against copied triangles on random rays through a random soup.
-        rng = np.random.default_rng(0)
-        v = rng.normal(size=(3000, 3)).astype(np.float32)
-        t = rng.integers(0, 3000, size=(5000, 3)).astype(np.int32)
-        o, d = rng.normal(size=(2, 20000, 3)).astype(np.float32)
-        shared, copied = (raytrace.EmbreeOccluder(v, t, shared=s) for s in (True, False))
-        result["geometry"] = [shared.geometry, copied.geometry]
-        a, b = shared.occluded(o, d), copied.occluded(o, d)
-        result["shared_vs_copied_equal"] = bool(np.array_equal(a, b))
-        lib = buffers._bind(buffers._library_path())
-        result["binding_origin"] = lib.origin
-
-        address = ctypes.cast(lib.rtcGetSceneDevice, ctypes.c_void_p).value
-        ctypes.CDLL(None).dladdr(ctypes.c_void_p(address), ctypes.byref(info := DlInfo()))
-        result["binding_library"] = info.fname.decode()
-        result["occluded_fraction"] = float(a.mean())
-
+    real_blender_embree.check(result, mod("core.trace.raytrace"), mod("core.trace.embree_buffers"))
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=60, y_subdivisions=60, size=8)
@@ -256,7 +226,7 @@ def step():
         bpy.context.scene.prt_display.show_light_directions = True  # forest.exr: 3 split lights
         markers, drawn = mod("blender.display.light_markers"), state.setdefault("markers", [])
         draw_markers = markers.draw_markers  # count what the viewport's handler draws, per phase
-        markers.draw_markers = lambda *a, **k: drawn.append((state["phase"], draw_markers(*a, **k))) or drawn[-1][1]
+        markers.draw_markers = lambda *a, **k: drawn.append((state["phase"], draw_markers(*a, **k), time.time()))
         area = window_context()["area"]
         area.spaces.active.show_region_ui = True  # the sidebar, on its "PRT" tab: draws our panels
         area.tag_redraw()
@@ -288,12 +258,18 @@ def step():
         result["light_directions"] = [light_directions()]
         with bpy.context.temp_override(**window_context()):
             result["rotate"] = list(bpy.ops.prt.set_light_rotation(rotation=(0.0, 0.0, 2.0)))
-        real_blender_colour.prepare(window_context())  # (no outline over the compared pixels)
         result["rotated_at"] = time.time()
         result["light_directions"].append(light_directions())
-        state["phase"] = "colour"
-        state["t"] = time.perf_counter()
-        return 1.5
+        result["suzanne_box"] = real_blender_shots.screen_box(bpy.data.objects["Suzanne"], window_context())
+        state.update(phase="turned", t=time.perf_counter())
+        return 0.05
+    if phase == "turned":
+        wait = real_blender_shots.wait_turn(result, state["markers"])
+        if wait:
+            return wait
+        real_blender_colour.prepare(window_context())  # (no outline over the compared pixels)
+        state.update(phase="colour", t=time.perf_counter())
+        return 0.5
     if phase == "colour":
         wait = real_blender_colour.step(result, mod, window_context())  # (over several ticks)
         if wait:
@@ -348,9 +324,12 @@ def verdict():
     bounced_blocks = report.get("bounce_channels", 0) if report.get("bounces") else 0
     backs_baked = int(any(json.loads(m["record"] or "{}").get("back", 0) for m in r.get("after_bake", {}).values()))
     long_samples = r.get("progress_samples_long_bake", [])
-    drawn = {phase for phase, lights in r.get("markers_drawn", []) if lights}  # phases with markers drawn
-    markers_turn = bool(drawn & {"sidebar", "display"} and drawn & {"long", "cancel"})  # before, after the turn
+    drawn = {phase for phase, lights, _ in r.get("markers_drawn", []) if lights}  # phases with markers drawn
+    markers_turn = bool(drawn & {"sidebar", "display"} and drawn & {"turned", "long", "cancel"})  # before, after
     markers_turn = markers_turn and len(set(map(str, r.get("light_directions", [])))) == 2
+    redraw, shots = r.get("turn_redraw_seconds"), real_blender_shots
+    turn_drawn = redraw is not None and redraw <= shots.REDRAW_SECONDS
+    turn_drawn = turn_drawn and r.get("turn_viewport_change", 0) >= shots.MIN_CHANGE
     checks = {
         "extension installed and enabled": r.get("install") == ["FINISHED"] and bool(r.get("enabled")),
         "embreex imports": bool(r.get("embree_available")),
@@ -374,6 +353,7 @@ def verdict():
         "the sidebar's PRT tab draws": r.get("sidebar_tab") == "PRT",
         real_blender_colour.CHECK: real_blender_colour.passed(r),
         "the light directions draw in the viewport and turn with the lighting": markers_turn,
+        "the viewport draws the turned lighting within 2 s (Suzanne changes on screen)": turn_drawn,
         "progress advances between timer events (the UI runs)": len(long_samples) >= 3
         and all(a < b for a, b in zip(long_samples, long_samples[1:])),
         "Esc cancels within 1 s": bool(r.get("cancel_report", {}).get("cancelled"))
@@ -390,6 +370,7 @@ def verdict():
 
 
 def finish():
+    real_blender_shots.compare(result, os.path.join(os.path.dirname(RESULT), "shots"))
     verdict()
     with open(RESULT, "w") as f:
         json.dump(result, f, indent=1)

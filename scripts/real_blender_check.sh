@@ -37,12 +37,13 @@ log_path = os.path.join(work, "blender.log")
 log = open(log_path, errors="replace").read() if os.path.isfile(log_path) else ""
 r["checks"]["no Python traceback in Blender's output"] = bool(log) and "Traceback" not in log
 checks = {name: not setup_error and r["checks"].get(name) is True for name in names}
-# The screen 1 s after the display was turned on and after the lighting was turned.
-shots = sorted((float(os.path.basename(p)[7:-4]), p) for p in glob.glob(os.path.join(work, "shots", "screen_*.png")))
-for key, name in (("display_on_at", "display_on.png"), ("rotated_at", "display_rotated.png")):
-    later = [p for t, p in shots if key in r and t >= r[key] + 1.0]
-    if later:
-        shutil.copy(later[0], os.path.join(work, name))
+# The screens that real_blender_shots.py picked: the display turned on, the turned lighting drawn.
+shots = glob.glob(os.path.join(work, "shots", "screen_*.png"))
+for shot, name in zip(r.get("turn_shots") or [], ("display_on.png", "display_rotated.png")):
+    if shot:
+        shutil.copy(os.path.join(work, "shots", shot), os.path.join(work, name))
+if "turn_redraw_seconds" in r:
+    print(f"the turn drawn after {r['turn_redraw_seconds']} s; Suzanne changed by {r.get('turn_viewport_change')} /255")
 if "blender" in r:
     print(f"Blender {r['blender']} (Python {r['python']}); Embree bound from {r.get('binding_library')}")
 for name, ok in checks.items():
@@ -106,7 +107,7 @@ zips=("$work"/dist/*linux_x64.zip)
 zip_name=$(basename "${zips[0]}")
 rm -rf "$chroot_dir$inside" "$chroot_dir/root/.config/blender" "$work/shots" "$work/colour"
 mkdir -p "$chroot_dir$inside/shots"
-cp "$work/dist/$zip_name" "$root/scripts/real_blender_check.py" "$root/scripts/real_blender_colour.py" "$chroot_dir$inside/"
+cp "$work/dist/$zip_name" "$root"/scripts/real_blender_{check,colour,embree,shots}.py "$chroot_dir$inside/"
 
 # The X screen every 0.3 s while Blender runs (the status bar shows the bake's progress text).
 chroot "$chroot_dir" bash -c "cd $inside && (for i in \$(seq -w 1 150); do \
