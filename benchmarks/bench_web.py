@@ -142,6 +142,10 @@ def main():
             print_ratio(name, "MeshStandardMaterial", times[name], standard)
     if "prt_specular" in times:
         print_ratio("prt_specular", "prt_relit (diffuse only)", times["prt_specular"], times["prt_relit"])
+        change = setup["specularChange"]
+        print(
+            f"prt_specular differs from prt_relit by {change['mean']:.1f}/255 on average over {change['pixels']} pixels"
+        )
     else:
         print("prt_specular: not drawn (the file has no specular block or no Principled material)")
     errors = [m for m in summary["console"] if m.startswith(("error", "pageerror"))]

@@ -176,13 +176,32 @@ async function setup(triangles, withLights, order = 8) {
   state.variants = variants;
   state.camera = camera;
   const prepare = {};
+  const images = {};
   for (const [name, { scene }] of Object.entries(variants)) {
     const started = performance.now();
     renderer.render(scene, camera); // (compile, shadow maps)
     finish();
     prepare[name] = performance.now() - started;
+    if (name === 'prt_relit' || name === 'prt_specular') {
+      images[name] = new Uint8Array(WIDTH * HEIGHT * 4);
+      gl.readPixels(0, 0, WIDTH, HEIGHT, gl.RGBA, gl.UNSIGNED_BYTE, images[name]);
+    }
   }
-  return { order, prepare, triangles: count, vertices, size: [WIDTH, HEIGHT], renderer: gl.getParameter(gl.RENDERER) };
+  // The specular drawn: the mean change of the knot's pixels (those not of the clear colour) from the diffuse frame.
+  let specularChange = null;
+  if (images.prt_specular) {
+    const [a, b] = [images.prt_relit, images.prt_specular];
+    let sum = 0;
+    let covered = 0;
+    for (let i = 0; i < a.length; i += 4) {
+      if (a[i] + a[i + 1] + a[i + 2] === 0 && b[i] + b[i + 1] + b[i + 2] === 0) continue;
+      sum += Math.abs(a[i] - b[i]) + Math.abs(a[i + 1] - b[i + 1]) + Math.abs(a[i + 2] - b[i + 2]);
+      covered += 1;
+    }
+    specularChange = { mean: sum / 3 / Math.max(covered, 1), pixels: covered };
+  }
+  const rendererName = gl.getParameter(gl.RENDERER);
+  return { order, prepare, specularChange, triangles: count, vertices, size: [WIDTH, HEIGHT], renderer: rendererName };
 }
 
 function frames(rounds) {
