@@ -11,7 +11,10 @@ finished by reading one pixel back: the PRT material (order 8 per-vertex transfe
 frame from a texture, the plugin's relight: false, the file's lighting), the same relit once per
 lighting change ("prt_relit", the plugin's default: one vec4 read per vertex a frame) and relit
 before every frame with the lighting turned ("prt_relit_turning"), the same from packed integer
-vertex attributes (the plugin's transferSource 'packed', "prt_packed"), with --lights the same with the file's
+vertex attributes (the plugin's transferSource 'packed', "prt_packed"), the relit one with the
+Principled specular ("prt_specular": the file's residual sky and split-sum table, the constants
+of Suzanne's Principled material, roughness 0.5, metallic 0; the demo is exported with the
+scene's Specular on; printed also against "prt_relit", the same frame diffuse only), with --lights the same with the file's
 split lights and their shadow views (PCSS per pixel) and with them unshadowed, and MeshStandardMaterial (roughness 0.5) with the file's world as a PMREM
 environment. Ratios are of medians measured side by side in one run; absolute times are for
 this machine only.
@@ -37,6 +40,20 @@ def tool(script):
     return run.stdout.strip().splitlines()[-1]
 
 
+def glossy_material(roughness):
+    """A Principled material (base 0.8 grey, metallic 0) of this roughness, as MeshStandardMaterial's."""
+    import bpy
+
+    material = bpy.data.materials.new("Glossy")
+    if material.node_tree is None:  # Blender 4.x: new materials have no nodes
+        material.use_nodes = True
+    bsdf = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
+    bsdf.inputs["Base Color"].default_value = (0.8, 0.8, 0.8, 1.0)
+    bsdf.inputs["Roughness"].default_value = roughness
+    bsdf.inputs["Metallic"].default_value = 0.0
+    return material
+
+
 def export_demo(folder, order):
     import prt_addon
     from prt_addon import api
@@ -45,9 +62,23 @@ def export_demo(folder, order):
     offscreen.ensure_gpu()
     prt_addon.register()
     scene = demo.build_scene(demo.bundled_hdri_path("forest"))
+    # With the scene's Specular on and a glossy Principled material on Suzanne, the file carries
+    # the specular block (residual sky, split-sum table) and that material's constants.
+    scene.prt_display.specular = True
+    scene.objects["Suzanne"].data.materials.append(glossy_material(roughness=0.5))
     api.project_world(order=order)
     api.bake([scene.objects["Suzanne"], scene.objects["Ground"]], order=order, samples=64)
     return api.export_gltf(os.path.join(folder, "prt_demo.glb"), scene=scene)
+
+
+def print_ratio(name, other, values, others):
+    """The median of the per-round ratios of two variants (drawn back to back), its range, the ratio of medians."""
+    ratios = sorted(a / b for a, b in zip(values, others))
+    print(
+        f"{name} / {other}: median of per-round ratios {statistics.median(ratios):.2f} "
+        f"(range {ratios[0]:.2f}-{ratios[-1]:.2f}); ratio of medians "
+        f"{statistics.median(values) / statistics.median(others):.2f}"
+    )
 
 
 def main():
@@ -105,13 +136,18 @@ def main():
         )
     # Each round draws every variant once, back to back: the ratio per round, then its median.
     standard = times["standard"]
-    for name in ("prt", "prt_packed", "prt_relit", "prt_relit_turning", "prt_lights", "prt_lights_unshadowed"):
+    names = ("prt", "prt_packed", "prt_relit", "prt_relit_turning", "prt_specular", "prt_lights")
+    for name in (*names, "prt_lights_unshadowed"):
         if name in times:
-            ratios = sorted(a / b for a, b in zip(times[name], standard))
-            print(
-                f"{name} / MeshStandardMaterial: median of per-round ratios {statistics.median(ratios):.2f} "
-                f"(range {ratios[0]:.2f}-{ratios[-1]:.2f}); ratio of medians {medians[name] / medians['standard']:.2f}"
-            )
+            print_ratio(name, "MeshStandardMaterial", times[name], standard)
+    if "prt_specular" in times:
+        print_ratio("prt_specular", "prt_relit (diffuse only)", times["prt_specular"], times["prt_relit"])
+        change = setup["specularChange"]
+        print(
+            f"prt_specular differs from prt_relit by {change['mean']:.1f}/255 on average over {change['pixels']} pixels"
+        )
+    else:
+        print("prt_specular: not drawn (the file has no specular block or no Principled material)")
     errors = [m for m in summary["console"] if m.startswith(("error", "pageerror"))]
     if errors:
         print("console errors:", errors)

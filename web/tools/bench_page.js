@@ -6,7 +6,9 @@
 // file's lighting without its split lights), 'prt_packed' (the same from packed integer vertex
 // attributes, transferSource 'packed'), 'prt_relit' (the texture relit once per lighting change,
 // the plugin's default: a vertex reads one vec4 a frame), 'prt_relit_turning' (the same with the
-// lighting turned before every frame: the relight pass and the frame), with `lights` also 'prt_lights' (the file's split lights
+// lighting turned before every frame: the relight pass and the frame), 'prt_specular' (relit, with
+// the Principled specular: the file's sky and table, its first Principled material's constants;
+// when the file has them), with `lights` also 'prt_lights' (the file's split lights
 // and shadow views) and 'prt_lights_unshadowed' (their cosine terms only), and 'standard'
 // (MeshStandardMaterial, white, roughness 0.5, lit by the file's world as a PMREM environment);
 // frames(k) draws each in turn k times, each frame finished by reading one pixel back, and
@@ -16,6 +18,8 @@ import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
 import { PRTLightingPlugin, geometryTransferSource, readLighting, readTransfer } from '../src/index.js';
 import { packedTransferSource, relitTransferSource } from '../src/transfer_source.js';
 import { PRTLighting } from '../src/prt_lighting.js';
+import { EXTRAS_KEY } from '../src/plugin.js';
+import { readMaterial } from '../src/specular.js';
 
 const WIDTH = 800;
 const HEIGHT = 600;
@@ -53,6 +57,10 @@ async function loadFile(base64) {
   const drawn = performance.now();
   state.gltf = gltf;
   state.background = background;
+  // The file's specular data and its first Principled material's constants (prt_specular).
+  const materials = (gltf.parser.json.materials || []).map((m) => readMaterial((m.extras || {})[EXTRAS_KEY]));
+  state.specular = gltf.userData.prt.specular;
+  state.constants = materials.find(Boolean) || null;
   return { bytes: buffer.byteLength, parse: parsed - started, firstFrame: drawn - parsed };
 }
 
@@ -119,19 +127,35 @@ async function setup(triangles, withLights, order = 8) {
     ['prt_relit', []],
     ['prt_relit_turning', []],
   ];
+  const glossy = Boolean(state.specular && state.constants);
+  if (glossy) kinds.push(['prt_specular', []]);
   if (withLights) kinds.push(['prt_lights', file.lights], ['prt_lights_unshadowed', file.lights]);
   const packed = packedTransferSource(geometry, spec);
   const texture = geometryTransferSource(geometry, spec, renderer.capabilities.maxTextureSize);
   for (const [name, lights] of kinds) {
     const mesh = new THREE.Mesh(geometry);
     const source =
-      name === 'prt_packed' ? packed : name.startsWith('prt_relit') ? relitTransferSource(texture) : texture;
+      name === 'prt_packed'
+        ? packed
+        : name.startsWith('prt_relit') || name === 'prt_specular'
+          ? relitTransferSource(texture)
+          : texture;
     const lighting = readLighting({ ...file, lights });
     const prt = new PRTLighting({
       lighting,
-      baked: [{ object: mesh, source, spec, albedo: [0.8, 0.8, 0.8], side: THREE.FrontSide }],
+      baked: [
+        {
+          object: mesh,
+          source,
+          spec,
+          albedo: [0.8, 0.8, 0.8],
+          side: THREE.FrontSide,
+          constants: name === 'prt_specular' ? state.constants : null,
+        },
+      ],
       casters: [mesh],
       exposure: 0,
+      specular: name === 'prt_specular' ? state.specular : null,
     });
     const scene = new THREE.Scene();
     scene.add(mesh);
@@ -152,13 +176,32 @@ async function setup(triangles, withLights, order = 8) {
   state.variants = variants;
   state.camera = camera;
   const prepare = {};
+  const images = {};
   for (const [name, { scene }] of Object.entries(variants)) {
     const started = performance.now();
     renderer.render(scene, camera); // (compile, shadow maps)
     finish();
     prepare[name] = performance.now() - started;
+    if (name === 'prt_relit' || name === 'prt_specular') {
+      images[name] = new Uint8Array(WIDTH * HEIGHT * 4);
+      gl.readPixels(0, 0, WIDTH, HEIGHT, gl.RGBA, gl.UNSIGNED_BYTE, images[name]);
+    }
   }
-  return { order, prepare, triangles: count, vertices, size: [WIDTH, HEIGHT], renderer: gl.getParameter(gl.RENDERER) };
+  // The specular drawn: the mean change of the knot's pixels (those not of the clear colour) from the diffuse frame.
+  let specularChange = null;
+  if (images.prt_specular) {
+    const [a, b] = [images.prt_relit, images.prt_specular];
+    let sum = 0;
+    let covered = 0;
+    for (let i = 0; i < a.length; i += 4) {
+      if (a[i] + a[i + 1] + a[i + 2] === 0 && b[i] + b[i + 1] + b[i + 2] === 0) continue;
+      sum += Math.abs(a[i] - b[i]) + Math.abs(a[i + 1] - b[i + 1]) + Math.abs(a[i + 2] - b[i + 2]);
+      covered += 1;
+    }
+    specularChange = { mean: sum / 3 / Math.max(covered, 1), pixels: covered };
+  }
+  const rendererName = gl.getParameter(gl.RENDERER);
+  return { order, prepare, specularChange, triangles: count, vertices, size: [WIDTH, HEIGHT], renderer: rendererName };
 }
 
 function frames(rounds) {
