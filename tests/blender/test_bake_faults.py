@@ -125,6 +125,8 @@ def test_the_scene_switched_during_the_bake_gets_its_report_and_the_meshes_their
     assert _run_out(op, switched) == {"FINISHED"}
     assert "prt_bake" in monkey.data and "prt_bake" in ground.data  # (the meshes the bake read)
     assert reports.last_report(other)["ok"]  # (the report where the user looks now)
+    baked = reports.last_report(bpy.context.scene)  # (and in the scene that was baked)
+    assert baked is not None and baked["ok"] and baked["seconds"] == reports.last_report(other)["seconds"]
     assert {o.name for o in other.objects} == set()  # (nothing written into the other scene)
 
 

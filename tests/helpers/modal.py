@@ -27,4 +27,6 @@ class ModalStandIn:
         self.report = lambda kind, msg: self.reports.append((set(kind), msg))
         self._cleanup = lambda ctx: cls._cleanup(self, ctx)
         self._fail = lambda ctx, exc: cls._fail(self, ctx, exc)
+        self._store = lambda ctx, report: cls._store(self, ctx, report)
+        self._scene_pointer = __import__("bpy").context.scene.as_pointer()  # (as invoke() keeps it)
         self.modal = lambda ctx, event: cls.modal(self, ctx, event)

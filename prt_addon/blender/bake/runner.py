@@ -69,6 +69,8 @@ class TimeSlicedRunner:
         if job is None:
             return {"CANCELLED"}
         self._bake = job
+        scene = getattr(context, "scene", None)
+        self._scene_pointer = scene.as_pointer() if scene is not None else None
         try:
             self._steps = job.steps()
             self._watched = watched(job)
@@ -85,6 +87,15 @@ class TimeSlicedRunner:
                 job.close()
             raise
         return {"RUNNING_MODAL"}
+
+    def _store(self, context, report):
+        """The report goes to the scene the window shows and, when the user switched scenes during
+        the bake, to the scene that was baked too (looked up by pointer: it may have been deleted)."""
+        _store_report(context.scene, report)
+        baked = getattr(self, "_scene_pointer", None)
+        for scene in bpy.data.scenes:
+            if scene.as_pointer() == baked and scene != context.scene:
+                _store_report(scene, report)
 
     def _cleanup(self, context):
         wm = context.window_manager
@@ -106,13 +117,13 @@ class TimeSlicedRunner:
         if event.type == "ESC":
             self._bake.cancel()
             self._cleanup(context)
-            _store_report(context.scene, BakeReport(cancelled=True, message="Bake cancelled: nothing was changed"))
+            self._store(context, BakeReport(cancelled=True, message="Bake cancelled: nothing was changed"))
             self.report({"WARNING"}, "PRT: bake cancelled, nothing was changed")
             return {"CANCELLED"}
         if self._bake._cancel:  # cancelled from outside (undo, a file loaded, the add-on disabled): write nothing
             message = getattr(self, "_stopped", None) or OUTSIDE_CANCEL
             self._cleanup(context)
-            _store_report(context.scene, BakeReport(cancelled=True, message=message))
+            self._store(context, BakeReport(cancelled=True, message=message))
             self.report({"WARNING"}, f"PRT: {message}")
             return {"CANCELLED"}
         if event.type != "TIMER":
@@ -137,7 +148,7 @@ class TimeSlicedRunner:
             except Exception as exc:
                 return self._fail(context, exc)
             self._cleanup(context)
-            _store_report(context.scene, report)
+            self._store(context, report)
             _report_to_operator(self, report)
             return {"FINISHED"}
         except Exception as exc:
@@ -150,7 +161,7 @@ class TimeSlicedRunner:
 
     def _fail(self, context, exc):
         self._cleanup(context)
-        _store_report(context.scene, BakeReport(message=f"Bake failed: {exc}"))
+        self._store(context, BakeReport(message=f"Bake failed: {exc}"))
         self.report({"ERROR"}, f"PRT: bake failed, nothing was changed: {exc}")
         return {"CANCELLED"}
 
