@@ -11,12 +11,14 @@ import sys
 import threading
 import time
 import traceback
+import types
 
 import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import real_blender_colour
 import real_blender_embree
+import real_blender_faults
 import real_blender_shots
 
 # Every check, in order; real_blender_check.sh reads it from the source (all fail without a result or set-up).
@@ -38,6 +40,12 @@ CHECKS = (
     "Esc cancels within 1 s",
     "a cancelled bake leaves the attributes as they were",
     "no worker thread left after Esc",
+    "a second Bake while one runs is refused, the first finishes",
+    "Ctrl+Z in the window during a bake is ignored, the bake finishes",
+    "the file saved during a bake: the bake finishes",
+    "the scene switched during a bake: the bake finishes with its report",
+    "undo from a script during a bake stops it, nothing changed",
+    "a baked object deleted during a bake stops it, the others unchanged",
     "no exception",
     "no Python traceback in Blender's output",
 )
@@ -308,6 +316,13 @@ def step():
         result["cancel_report"] = bake_reports.last_report(bpy.context.scene)
         result["after_cancel"] = prt_bytes()
         result["threads_after_cancel"] = bake_threads()
+        state["phase"] = "faults"
+        return 0.3
+    if phase == "faults":  # a second Bake, Ctrl+Z, save, another scene, undo, deletion: each during a bake
+        tools = (start_bake, running_job, prt_bytes, bake_threads, window_context, mod)
+        wait = real_blender_faults.step(result, state, types.SimpleNamespace(**{f.__name__: f for f in tools}))
+        if wait:
+            return wait
         finish()
     return None
 
@@ -360,6 +375,7 @@ def verdict():
         and r.get("cancel_seconds_after_esc", 99) < 1.0,
         "a cancelled bake leaves the attributes as they were": same(r.get("after_cancel"), r.get("after_bake")),
         "no worker thread left after Esc": r.get("threads_after_cancel") == [],
+        **real_blender_faults.checks(r),
         "no exception": "exception" not in r and "setup_error" not in r,
     }
     assert list(checks) == list(CHECKS[:-1]), "verdict() and CHECKS name different checks"

@@ -107,7 +107,7 @@ zips=("$work"/dist/*linux_x64.zip)
 zip_name=$(basename "${zips[0]}")
 rm -rf "$chroot_dir$inside" "$chroot_dir/root/.config/blender" "$work/shots" "$work/colour"
 mkdir -p "$chroot_dir$inside/shots"
-cp "$work/dist/$zip_name" "$root"/scripts/real_blender_{check,colour,embree,shots}.py "$chroot_dir$inside/"
+cp "$work/dist/$zip_name" "$root"/scripts/real_blender_{check,colour,embree,faults,shots}.py "$chroot_dir$inside/"
 
 # The X screen every 0.3 s while Blender runs (the status bar shows the bake's progress text).
 chroot "$chroot_dir" bash -c "cd $inside && (for i in \$(seq -w 1 150); do \
