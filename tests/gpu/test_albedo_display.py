@@ -138,3 +138,63 @@ def test_colour_attribute_slot_beside_an_image_slot(bpy_module, empty_scene, gpu
     assert np.allclose(top, expected[None], rtol=0.01, atol=1e-4), top.mean(axis=0)[::10]
     left = image[36:62, 6:26]
     assert np.allclose(left, np.array([0.5, 0.0, 0.0]) * SKY, rtol=0.02, atol=1e-4)
+
+
+def _expected_halves(u, extension):
+    """The halves image (red for u in [0, 0.5), blue in [0.5, 1)) at u, away from texel edges, as
+    the Image Texture node's extension continues it outside [0, 1]; None: black (Clip)."""
+    half = np.floor(u / 0.5).astype(int)  # which half-image-wide strip u is in
+    if extension == "REPEAT":
+        red = half % 2 == 0
+    elif extension == "EXTEND":
+        red = np.where(half < 0, True, np.where(half >= 2, False, half == 0))
+    elif extension == "CLIP":
+        red = half % 2 == 0
+    else:  # MIRROR: u -> u mod 2, folded back above 1
+        folded = np.mod(u, 2.0)
+        red = np.where(folded > 1.0, 2.0 - folded, folded) < 0.5
+    colour = np.where(red[:, None], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+    if extension == "CLIP":
+        colour[(half < 0) | (half >= 2)] = 0.0
+    return colour
+
+
+@pytest.mark.parametrize("extension", ["REPEAT", "EXTEND", "CLIP", "MIRROR"])
+@pytest.mark.parametrize("interpolation", ["Linear", "Closest"])
+def test_image_node_extension_and_interpolation(bpy_module, empty_scene, gpu_ready, tmp_path, extension, interpolation):
+    """A quad whose u runs from -1 to 2 across the view: outside [0, 1] the image continues as the
+    node's extension says; at the red/blue edge Linear mixes the two texels, Closest does not."""
+    from prt_addon.blender.display import offscreen
+
+    bpy, scene = bpy_module, empty_scene
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    obj = bpy.context.active_object
+    uvs = np.empty(2 * len(obj.data.loops), dtype=np.float32)
+    obj.data.uv_layers[0].data.foreach_get("uv", uvs)
+    uvs[0::2] = 3.0 * uvs[0::2] - 1.0  # u = 1.5 x + 0.5 for x in [-1, 1]
+    obj.data.uv_layers[0].data.foreach_set("uv", uvs)
+    image = bpy.data.images.load(albedo_scenes.halves_png(str(tmp_path)))
+    material = albedo_scenes.image_material(bpy, "halves", image)
+    node = next(n for n in material.node_tree.nodes if n.bl_idname == "ShaderNodeTexImage")
+    node.extension, node.interpolation = extension, interpolation
+    obj.data.materials.append(material)
+    write_bake(obj, clamped_cosine_rows(np.tile([0.0, 0.0, 1.0], (len(obj.data.vertices), 1)), 3), 3, "POINT")
+    light = np.zeros((9, 3))
+    light[0] = SKY * math.sqrt(4.0 * math.pi)
+    set_light(scene, light)
+    add_camera(bpy, scene, location=(0.0, 0.0, 4.0), euler=(0.0, 0.0, 0.0), size=64)
+    scene.camera.data.type, scene.camera.data.ortho_scale = "ORTHO", 2.0
+    bpy.context.view_layer.update()
+    row = offscreen.render_view(scene)[16:48, :, :3].mean(axis=0) / SKY  # the albedo along u
+    u = 1.5 * (-1.0 + (np.arange(64) + 0.5) / 32.0) + 0.5  # at each pixel column's centre
+    texel = 1.0 / 8.0  # (the halves image is 8 texels wide)
+    clear = np.abs(u / 0.5 - np.round(u / 0.5)) * 0.5 > texel  # over a texel from every strip edge
+    assert clear.sum() > 20
+    assert np.allclose(row[clear], _expected_halves(u[clear], extension), atol=0.01), row[clear]
+    # Beside the red/blue edge at u = 0.5, within half a texel: Linear mixes them, Closest not.
+    edge = np.abs(u - 0.5) < texel / 2
+    weight = np.clip((u[edge] * 8.0 - 0.5) - 3.0, 0.0, 1.0)  # bilinear weight of texel 4 (blue)
+    if interpolation == "Closest":
+        weight = (u[edge] >= 0.5).astype(float)
+    mixed = np.stack([1.0 - weight, np.zeros_like(weight), weight], axis=-1)
+    assert edge.sum() >= 2 and np.allclose(row[edge], mixed, atol=0.02), (row[edge], mixed)

@@ -1,8 +1,10 @@
 """Albedo images as GPU textures (scene-linear RGBA16F, from image_pixels), cached per image; their GLSL.
 
-The fragment shader reads them with albedo_at(uv): Blender's Image Texture defaults, Linear and
-Repeat (texel centres at (i + 0.5) / size, wrapping), written out with texelFetch. An image is
-read again when its name, size, source, file, colour space or dirty flag changes.
+The fragment shader reads them with albedo_at(uv) as the Image Texture node samples them:
+albedo_mode (interpolation, extension) chooses Linear (texel centres at (i + 0.5) / size) or
+Closest, and Repeat, Extend, Clip (texels outside are black) or Mirror, written out with
+texelFetch. An image is read again when its name, size, source, file, colour space or dirty flag
+changes.
 """
 
 import gpu
@@ -16,16 +18,38 @@ ALBEDO_SLOT = 5  # sampler slot (0 transfer, 1 and 2 shadow maps, 3 and 4 the sp
 GLSL = """
 vec3 albedo_px;  // albedo_at(albedo_uv), set first in main()
 
+ivec2 albedo_floor_mod(ivec2 i, ivec2 n)
+{
+  return i - n * ivec2(floor(vec2(i) / vec2(n)));  // (GLSL's % is undefined for negative i)
+}
+
+vec3 albedo_texel(ivec2 i, ivec2 size)
+{
+  if (albedo_mode.y == 2 && (any(lessThan(i, ivec2(0))) || any(greaterThanEqual(i, size)))) {
+    return vec3(0.0);  // Clip
+  }
+  ivec2 j = albedo_floor_mod(i, size);  // Repeat
+  if (albedo_mode.y == 1 || albedo_mode.y == 2) {
+    j = clamp(i, ivec2(0), size - 1);  // Extend
+  }
+  else if (albedo_mode.y == 3) {
+    ivec2 m = albedo_floor_mod(i, 2 * size);  // Mirror: 0 .. n - 1, then n - 1 .. 0
+    j = min(m, 2 * size - 1 - m);
+  }
+  return texelFetch(albedo_tx, j, 0).rgb;
+}
+
 vec3 albedo_at(vec2 uv)
 {
   ivec2 size = textureSize(albedo_tx, 0);
+  if (albedo_mode.x == 1) {
+    return albedo_texel(ivec2(floor(uv * vec2(size))), size);  // Closest
+  }
   vec2 p = uv * vec2(size) - 0.5;
   ivec2 a = ivec2(floor(p));
   vec2 f = p - vec2(a);
-  ivec2 lo = (a % size + size) % size;
-  ivec2 hi = (lo + 1) % size;
-  vec3 low = mix(texelFetch(albedo_tx, lo, 0).rgb, texelFetch(albedo_tx, ivec2(hi.x, lo.y), 0).rgb, f.x);
-  vec3 high = mix(texelFetch(albedo_tx, ivec2(lo.x, hi.y), 0).rgb, texelFetch(albedo_tx, hi, 0).rgb, f.x);
+  vec3 low = mix(albedo_texel(a, size), albedo_texel(a + ivec2(1, 0), size), f.x);
+  vec3 high = mix(albedo_texel(a + ivec2(0, 1), size), albedo_texel(a + ivec2(1), size), f.x);
   return mix(low, high, f.y);
 }
 """

@@ -117,6 +117,7 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
             shader.uniform_float("tint", tints[slot])
             if entry.textured:
                 shader.uniform_sampler("albedo_tx", textures[slot])
+                shader.uniform_int("albedo_mode", sources[slot].sampling if sources else (0, 0))
             if specular:
                 slot = min(mat_index, len(slot_specular) - 1)
                 bind_slot(shader, state, slot, mw, spec_frame, slot_specular[slot])

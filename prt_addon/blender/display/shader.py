@@ -227,6 +227,7 @@ def get_shader(count, lights=None, bounce_channels=0, domain="POINT", specular=F
     if textured:
         info.vertex_in(first, "VEC2", "prt_albedo_uv")
         info.sampler(albedo_texture.ALBEDO_SLOT, "FLOAT_2D", "albedo_tx")
+        info.push_constant("IVEC2", "albedo_mode")  # (interpolation, extension): albedo_texture
         albedo_iface = gpu.types.GPUStageInterfaceInfo("prt_albedo_iface")
         albedo_iface.smooth("VEC2", "albedo_uv")
         info.vertex_out(albedo_iface)

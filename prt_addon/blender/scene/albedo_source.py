@@ -7,13 +7,18 @@ import numpy as np
 from .materials import active_output, colour_attribute
 
 DIFFUSE_INPUTS = {"ShaderNodeBsdfPrincipled": "Base Color", "ShaderNodeBsdfDiffuse": "Color"}
+# An Image Texture node's sampling as the display's albedo_mode: (interpolation, extension).
+# Cubic and Smart are drawn as Linear.
+INTERPOLATION_MODES = {"Linear": 0, "Closest": 1, "Cubic": 0, "Smart": 0}
+EXTENSION_MODES = {"REPEAT": 0, "EXTEND": 1, "CLIP": 2, "MIRROR": 3}
 
 
 @dataclass(frozen=True)
 class AlbedoSource:
     """kind 'CONSTANT' (colour), 'IMAGE' (image on uv_map, "" = the active one, times colour) or
     'ATTRIBUTE' (the colour attribute `attribute`, "" = the active one, times colour); note: why a
-    fallback was taken, "" when the material was read as it is."""
+    fallback was taken, "" when the material was read as it is; sampling: the image node's
+    (interpolation, extension) as INTERPOLATION_MODES and EXTENSION_MODES number them."""
 
     kind: str
     colour: tuple = (1.0, 1.0, 1.0)
@@ -21,6 +26,7 @@ class AlbedoSource:
     uv_map: str = ""
     attribute: str = ""
     note: str = ""
+    sampling: tuple = (0, 0)
 
 
 def _constant(socket):
@@ -49,11 +55,12 @@ def _from_socket(socket, colour, name):
         if node.image is None:
             return None, f"'{name}': its Image Texture node has no image"
         vector = node.inputs["Vector"]
+        sampling = (INTERPOLATION_MODES.get(node.interpolation, 0), EXTENSION_MODES.get(node.extension, 0))
         if not vector.is_linked:
-            return AlbedoSource("IMAGE", colour, node.image), ""
+            return AlbedoSource("IMAGE", colour, node.image, sampling=sampling), ""
         uv = vector.links[0].from_node
         if uv.bl_idname == "ShaderNodeUVMap":
-            return AlbedoSource("IMAGE", colour, node.image, uv_map=uv.uv_map), ""
+            return AlbedoSource("IMAGE", colour, node.image, uv_map=uv.uv_map, sampling=sampling), ""
         return None, f"'{name}': the image's coordinates come from a {uv.bl_idname} node"
     if node.bl_idname == "ShaderNodeVertexColor":
         return AlbedoSource("ATTRIBUTE", colour, attribute=node.layer_name), ""
