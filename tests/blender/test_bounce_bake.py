@@ -167,7 +167,7 @@ def test_textured_and_over_bright_albedo(bpy_module, empty_scene):
     bsdf = red.node_tree.nodes["Diffuse BSDF"]
     red.node_tree.links.new(texture.outputs["Color"], bsdf.inputs["Color"])
     report = api.bake(objs, order=2, samples=64, bounces=1)
-    assert any("'tex': bounced light uses the image per triangle" in note for note in report.albedo_notes)
+    assert any("'tex': bounced light uses the image at each hit" in note for note in report.albedo_notes)
     assert not any("mean colour" in note for note in report.albedo_notes)
     textured = storage.read_bounce(objs[0].data).copy()
     red.node_tree.links.remove(bsdf.inputs["Color"].links[0])

@@ -4,8 +4,9 @@ The rule is the display's Material albedo (scene/materials.py) for diffuse shade
 Principled BSDF's Base Color or the Diffuse BSDF's Color; no material: 0.8 grey (Blender's
 default surface); no node tree: the material's viewport colour. A colour that comes from an
 Image Texture node on a UV map the mesh has (the display's rule, scene/albedo_source.py) is the
-image's mean over each triangle's UV triangle (linear, times the source's colour); other images
-their mean colour; any other node, the viewport colour.
+image at each ray's hit point (triangle_images: linear, times the source's colour; the triangle's
+mean over its UV triangle decides only whether the bake needs colour); other images their mean
+colour; any other node, the viewport colour.
 A surface whose shader is not diffuse (Glossy, Glass, ...) reflects with its viewport colour, and
 an Emission shader alone reflects nothing (emission is not light for the bake). The report says
 which materials were read these ways. Values above 1 (an energy gain) are clamped to 1, with a
@@ -121,7 +122,7 @@ def _slot_triangles(src, mesh, corners, here, means):
     if src.kind == "IMAGE":
         values, note = _image_triangles(src, mesh, corners, here, means)
         if values is not None:
-            note = f"'{src.image.name}': bounced light uses the image per triangle"
+            note = f"'{src.image.name}': bounced light uses the image at each hit"
         return values, note
     colours = element_albedo(mesh, "CORNER", "ATTRIBUTE", src.attribute)[:, :3]
     values = colours[corners[here]].mean(axis=1) * np.asarray(src.colour)
@@ -159,3 +160,24 @@ def triangle_albedo(obj, mesh, faces, notes, seen, means, corners=None):
             albedo[here] = np.clip(values, 0.0, 1.0)
         _say(note, notes, seen)
     return albedo
+
+
+def triangle_images(obj, mesh, faces, corners, means):
+    """[(local triangle indices, (k, 3, 2) corner UVs, (H, W, 3) linear image times colour)] of
+    the loop triangles (faces, corners as triangle_albedo's) whose slot shows an image on a UV map
+    the mesh has: what core.transfer.hit_albedo looks up at each hit."""
+    slots = np.clip(mesh_read.read_face_materials(mesh)[faces], 0, max(len(obj.material_slots) - 1, 0))
+    out = []
+    for i, slot in enumerate(getattr(obj, "material_slots", [])):
+        src = mesh_source(slot.material, mesh) if slot.material is not None else None
+        if src is None or src.kind != "IMAGE":
+            continue
+        here = np.flatnonzero(slots == i)
+        key = ("pixels", src.image.as_pointer())
+        if key not in means:
+            means[key] = image_pixels(src.image)
+        rgb = means[key][0]
+        if len(here) and rgb is not None:
+            uvs = mesh_read.read_corner_uvs(mesh, src.uv_map)[corners[here]]
+            out.append((here, uvs, np.asarray(rgb, np.float32) * np.asarray(src.colour, np.float32)))
+    return out

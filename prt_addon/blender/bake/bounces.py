@@ -12,11 +12,11 @@ bounce passes run on the whole node set.
 import numpy as np
 
 from ...core.trace import raytrace
-from ...core.transfer import bounce, bounce_hits, texel_hits
+from ...core.transfer import bounce, bounce_hits, hit_albedo, texel_hits
 from ...core.transfer.mesh import concatenate_parts
 from ..scene import mesh_read
 from ..scene.parts import ray_setup
-from .bounce_albedo import triangle_albedo
+from .bounce_albedo import triangle_albedo, triangle_images
 
 
 def _node_triangles(points, corners, corner_verts):
@@ -38,7 +38,7 @@ class BounceSystem:
         plan_of = {plan.obj: plan for plan in job.plans}
         self.plan_offset = {}  # id(plan) -> its first node
         self.node_computations = []  # (first node, computation) of parts that are not baked
-        node_triangles, albedo, orientation, extra_parts = [], [], [], []
+        node_triangles, albedo, orientation, extra_parts, textured = [], [], [], [], []
         remap = texel_hits.TexelRemap()
         offset = first_triangle = 0
         for index, ((owner, world, triangles), src) in enumerate(zip(parts, sources)):
@@ -58,6 +58,8 @@ class BounceSystem:
                 node_triangles.append(local.astype(np.int64) + offset)
                 count = len(points.positions)
             albedo.append(triangle_albedo(src.obj, src.mesh, faces, self.notes, seen, means, corners))
+            for here, uvs, image in triangle_images(src.obj, src.mesh, faces, corners, means):
+                textured.append((first_triangle + here, uvs, image))  # (their albedo per hit)
             # A mirrored part (negative determinant) has its winding, hence its geometric
             # normals, reversed in world space: flip them back so its front faces stay front.
             orientation.append(np.full(len(faces), -1.0 if mirrored else 1.0))
@@ -69,7 +71,7 @@ class BounceSystem:
             first_triangle += len(triangles)
         self.n_nodes = offset
         albedo = np.concatenate(albedo) if albedo else np.zeros((0, 3))
-        grey = bool(np.all(albedo == albedo[:, :1]))
+        grey = bool(np.all(albedo == albedo[:, :1])) and not textured
         self.channels = 1 if grey else 3
         vertices, triangles = concatenate_parts(parts)
         self.sink = bounce_hits.HitTransport(
@@ -83,6 +85,11 @@ class BounceSystem:
         )
         if remap.parts:
             self.sink.remap = remap
+        if textured:
+            images = hit_albedo.HitAlbedo(len(triangles))
+            for index, uvs, image in textured:
+                images.add(index, uvs, image)
+            self.sink.set_hit_albedo(images)
         boxes = [raytrace.bounding_box(v) for _o, v, _t in parts]
         for index, first, points, world, tris, src in extra_parts:
             self.node_computations.append((first, self._computation(job, points, world, tris, src, boxes, index)))

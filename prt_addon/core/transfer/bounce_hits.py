@@ -19,6 +19,8 @@ import threading
 import numpy as np
 import numpy.typing as npt
 
+from .hit_albedo import HitAlbedo
+
 
 def _hash_unit(rows: np.ndarray, kdir: np.ndarray, seed: int, work: _Work | None = None) -> np.ndarray:
     """Uniform [0, 1] float32 per (row, direction): murmur3's 32-bit finaliser of a mix (in
@@ -87,6 +89,7 @@ class HitTransport:
         if len(nodes) != len(t):
             raise ValueError("node_triangles must have one row per triangle")
         flip = None if orientation is None else np.flatnonzero(np.asarray(orientation).reshape(-1) < 0)
+        self._flipped = flip
         if flip is not None and len(flip):
             # A triangle whose winding is reversed (a mirrored object) is stored as (a, c, b), so
             # that (b - a) x (c - a) points out of every front face.
@@ -109,7 +112,15 @@ class HitTransport:
         # None, or a callable (prims, u det, v det, det) -> None | (which, nodes) giving some hits
         # their nodes by another rule (core.transfer.texel_hits: the texels of texel-baked meshes).
         self.remap = None
+        self.hit_albedo: HitAlbedo | None = None  # textured triangles: set_hit_albedo()
         self._work = _Work()
+
+    def set_hit_albedo(self, hit_albedo: HitAlbedo) -> None:
+        """Textured triangles take their albedo at each hit from their image (a HitAlbedo over
+        the soup as given, before the mirrored triangles' corners were reordered)."""
+        if self._flipped is not None and len(self._flipped):
+            hit_albedo.flip(self._flipped)
+        self.hit_albedo = hit_albedo if hit_albedo.textured else None
 
     def __call__(
         self,
@@ -129,6 +140,10 @@ class HitTransport:
         corners = np.take(self.corners, prims, axis=0, out=work.get("corners", 9 * m, np.float32).reshape(m, 9))
         ud, vd, det = hit_barycentrics(corners, origins, dirs, work)
         remapped = None if self.remap is None else self.remap(prims, ud, vd, det)  # (before ud, vd change)
+        hit = self.hit_albedo
+        if hit is not None:  # (the barycentrics of corners 1 and 2; det <= 0 only on back faces, dropped)
+            safe = np.where(det > 0.0, det, np.float32(1.0))
+            b1, b2 = ud / safe, vd / safe
         xd = _hash_unit(rows, np.asarray(kdir), self.seed, work)
         # Corner 1 where xi < u, 2 where u <= xi < u + v, else 0; compared times det (> 0 on the
         # front faces, the only hits kept), which saves the division.
@@ -151,7 +166,12 @@ class HitTransport:
         cosines = np.asarray(cosines)
         if not keep.all():
             prims, cosines, rows, nodes = prims[keep], cosines[keep], rows[keep], nodes[keep]
+            if hit is not None:
+                b1, b2 = b1[keep], b2[keep]
         weights = np.take(self._weights, prims, axis=0)
+        if hit is not None:
+            which, rho = hit(prims, b1, b2)
+            weights[which] = rho[:, : self.channels] * np.float32(self.scale)
         weights *= cosines.astype(np.float32)[:, None]
         rows = rows.astype(np.int32)
         # A block's rays are point-major, so its rows come sorted: kept as runs (4 bytes a hit less).
