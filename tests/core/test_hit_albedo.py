@@ -67,3 +67,14 @@ def test_a_mirrored_triangle_keeps_its_uvs_where_they_were():
     weights, xy = _hits([-1.0], from_below=True)
     assert len(weights) == len(xy)
     np.testing.assert_allclose(weights, _expected(xy[:, 0], xy[:, 1]), rtol=1e-5, atol=1e-6)
+
+
+def test_instances_of_one_image_share_one_copy():
+    image = _linear_image()
+    albedo = HitAlbedo(4)
+    albedo.add([0, 1], np.stack([UVS, UVS]), image, key=("image", 7))
+    albedo.add([3], UVS[None], image, key=("image", 7))
+    albedo.add([2], UVS[None], image)  # (no key: its own copy)
+    assert len(albedo.images) == 2 and list(albedo.image_of) == [0, 0, 1, 0]
+    which, rho = albedo(np.array([3, 2]), np.array([0.2, 0.2]), np.array([0.3, 0.3]))
+    assert which.all() and np.allclose(rho[0], rho[1])

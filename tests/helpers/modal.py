@@ -28,5 +28,7 @@ class ModalStandIn:
         self._cleanup = lambda ctx: cls._cleanup(self, ctx)
         self._fail = lambda ctx, exc: cls._fail(self, ctx, exc)
         self._store = lambda ctx, report: cls._store(self, ctx, report)
-        self._scene_pointer = __import__("bpy").context.scene.as_pointer()  # (as invoke() keeps it)
+        from prt_addon.blender.bake.reports import _scene_key
+
+        self._scene_key = _scene_key(__import__("bpy").context.scene)  # (as invoke() keeps it)
         self.modal = lambda ctx, event: cls.modal(self, ctx, event)

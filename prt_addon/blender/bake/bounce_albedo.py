@@ -5,8 +5,8 @@ Principled BSDF's Base Color or the Diffuse BSDF's Color; no material: 0.8 grey 
 default surface); no node tree: the material's viewport colour. A colour that comes from an
 Image Texture node on a UV map the mesh has (the display's rule, scene/albedo_source.py) is the
 image at each ray's hit point (triangle_images: linear, times the source's colour; the triangle's
-mean over its UV triangle decides only whether the bake needs colour); other images their mean
-colour; any other node, the viewport colour.
+mean over its UV triangle, from triangle_albedo, is its entry in the per-triangle table, replaced
+at every hit); other images their mean colour; any other node, the viewport colour.
 A surface whose shader is not diffuse (Glossy, Glass, ...) reflects with its viewport colour, and
 an Emission shader alone reflects nothing (emission is not light for the bake). The report says
 which materials were read these ways. Values above 1 (an energy gain) are clamped to 1, with a
@@ -163,9 +163,10 @@ def triangle_albedo(obj, mesh, faces, notes, seen, means, corners=None):
 
 
 def triangle_images(obj, mesh, faces, corners, means):
-    """[(local triangle indices, (k, 3, 2) corner UVs, (H, W, 3) linear image times colour)] of
+    """[(local triangle indices, (k, 3, 2) corner UVs, (H, W, 3) linear image times colour, key)] of
     the loop triangles (faces, corners as triangle_albedo's) whose slot shows an image on a UV map
-    the mesh has: what core.transfer.hit_albedo looks up at each hit."""
+    the mesh has: what core.transfer.hit_albedo looks up at each hit; key: (image, colour), the
+    same for every instance of that slot."""
     slots = np.clip(mesh_read.read_face_materials(mesh)[faces], 0, max(len(obj.material_slots) - 1, 0))
     out = []
     for i, slot in enumerate(getattr(obj, "material_slots", [])):
@@ -179,5 +180,8 @@ def triangle_images(obj, mesh, faces, corners, means):
         rgb = means[key][0]
         if len(here) and rgb is not None:
             uvs = mesh_read.read_corner_uvs(mesh, src.uv_map)[corners[here]]
-            out.append((here, uvs, np.asarray(rgb, np.float32) * np.asarray(src.colour, np.float32)))
+            tinted = ("tinted", key[1], tuple(src.colour))
+            if tinted not in means:  # (one array per image and colour, however many instances)
+                means[tinted] = np.asarray(rgb, np.float32) * np.asarray(src.colour, np.float32)
+            out.append((here, uvs, means[tinted], tinted))
     return out

@@ -58,8 +58,8 @@ class BounceSystem:
                 node_triangles.append(local.astype(np.int64) + offset)
                 count = len(points.positions)
             albedo.append(triangle_albedo(src.obj, src.mesh, faces, self.notes, seen, means, corners))
-            for here, uvs, image in triangle_images(src.obj, src.mesh, faces, corners, means):
-                textured.append((first_triangle + here, uvs, image))  # (their albedo per hit)
+            for here, uvs, image, key in triangle_images(src.obj, src.mesh, faces, corners, means):
+                textured.append((first_triangle + here, uvs, image, key))  # (their albedo per hit)
             # A mirrored part (negative determinant) has its winding, hence its geometric
             # normals, reversed in world space: flip them back so its front faces stay front.
             orientation.append(np.full(len(faces), -1.0 if mirrored else 1.0))
@@ -71,7 +71,8 @@ class BounceSystem:
             first_triangle += len(triangles)
         self.n_nodes = offset
         albedo = np.concatenate(albedo) if albedo else np.zeros((0, 3))
-        grey = bool(np.all(albedo == albedo[:, :1])) and not textured
+        grey = bool(np.all(albedo == albedo[:, :1]))
+        grey = grey and all(np.all(image == image[..., :1]) for _i, _u, image, _k in textured)
         self.channels = 1 if grey else 3
         vertices, triangles = concatenate_parts(parts)
         self.sink = bounce_hits.HitTransport(
@@ -87,8 +88,8 @@ class BounceSystem:
             self.sink.remap = remap
         if textured:
             images = hit_albedo.HitAlbedo(len(triangles))
-            for index, uvs, image in textured:
-                images.add(index, uvs, image)
+            for index, uvs, image, key in textured:
+                images.add(index, uvs, image, key)
             self.sink.set_hit_albedo(images)
         boxes = [raytrace.bounding_box(v) for _o, v, _t in parts]
         for index, first, points, world, tris, src in extra_parts:

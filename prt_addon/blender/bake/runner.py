@@ -11,7 +11,7 @@ import time
 import bpy
 from bpy.app.handlers import persistent
 
-from .reports import _report_to_operator, _store_report
+from .reports import _report_to_operator, _scene_key, _store_report
 from .settings import BakeReport
 
 TIME_SLICE = 0.1  # seconds of work per timer event of the modal bake
@@ -70,7 +70,7 @@ class TimeSlicedRunner:
             return {"CANCELLED"}
         self._bake = job
         scene = getattr(context, "scene", None)
-        self._scene_pointer = scene.as_pointer() if scene is not None else None
+        self._scene_key = _scene_key(scene) if scene is not None else None
         try:
             self._steps = job.steps()
             self._watched = watched(job)
@@ -90,11 +90,11 @@ class TimeSlicedRunner:
 
     def _store(self, context, report):
         """The report goes to the scene the window shows and, when the user switched scenes during
-        the bake, to the scene that was baked too (looked up by pointer: it may have been deleted)."""
+        the bake, to the scene that was baked too (looked up by its key: it may have been deleted)."""
         _store_report(context.scene, report)
-        baked = getattr(self, "_scene_pointer", None)
+        baked = getattr(self, "_scene_key", None)
         for scene in bpy.data.scenes:
-            if scene.as_pointer() == baked and scene != context.scene:
+            if _scene_key(scene) == baked and scene != context.scene:
                 _store_report(scene, report)
 
     def _cleanup(self, context):

@@ -20,7 +20,8 @@ vec3 albedo_px;  // albedo_at(albedo_uv), set first in main()
 
 ivec2 albedo_floor_mod(ivec2 i, ivec2 n)
 {
-  return i - n * ivec2(floor(vec2(i) / vec2(n)));  // (GLSL's % is undefined for negative i)
+  // (GLSL's % is undefined for negative i; the 0.5 keeps an inexact division off whole numbers)
+  return i - n * ivec2(floor((vec2(i) + 0.5) / vec2(n)));
 }
 
 vec3 albedo_texel(ivec2 i, ivec2 size)

@@ -22,14 +22,18 @@ class HitAlbedo:
         self.image_of = np.full(n_triangles, -1, np.int32)
         self.uvs = np.zeros((n_triangles, 3, 2), np.float32)
         self.images: list[np.ndarray] = []
+        self._keys: dict[object, int] = {}
 
-    def add(self, triangles: npt.ArrayLike, uvs: npt.ArrayLike, image: npt.ArrayLike) -> None:
+    def add(self, triangles: npt.ArrayLike, uvs: npt.ArrayLike, image: npt.ArrayLike, key: object = None) -> None:
         """Triangles (indices into the soup) showing `image` (H, W, 3), row 0 at v = 0, with
-        their corners' UVs (k, 3, 2)."""
+        their corners' UVs (k, 3, 2); triangles added with the same key (not None) share one copy."""
         index = np.asarray(triangles, dtype=np.int64)
         self.uvs[index] = np.asarray(uvs, dtype=np.float32).reshape(-1, 3, 2)
-        self.image_of[index] = len(self.images)
-        self.images.append(np.clip(np.asarray(image, dtype=np.float32), 0.0, 1.0))
+        if key is None or key not in self._keys:
+            if key is not None:
+                self._keys[key] = len(self.images)
+            self.images.append(np.clip(np.asarray(image, dtype=np.float32), 0.0, 1.0))
+        self.image_of[index] = self._keys[key] if key is not None else len(self.images) - 1
 
     def flip(self, triangles: npt.ArrayLike) -> None:
         """Triangles the sink stores as (a, c, b): their UVs follow."""
