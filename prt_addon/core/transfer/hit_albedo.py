@@ -52,10 +52,13 @@ class HitAlbedo:
         if not len(out):
             return which, out
         tri, image_ids = prims[which], images[which]
-        w1, w2 = b1[which].astype(np.float64)[:, None], b2[which].astype(np.float64)[:, None]
-        corners = self.uvs[tri].astype(np.float64)
+        w1, w2 = b1[which][:, None], b2[which][:, None]
+        corners = self.uvs[tri]
         uv = corners[:, 0] * (1.0 - w1 - w2) + corners[:, 1] * w1 + corners[:, 2] * w2
+        if len(self.images) == 1:
+            out[:] = bilinear_repeat(self.images[0], uv, np.float32)
+            return which, out
         for k in np.unique(image_ids):
             here = image_ids == k
-            out[here] = bilinear_repeat(self.images[k], uv[here])
+            out[here] = bilinear_repeat(self.images[k], uv[here], np.float32)
         return which, out

@@ -4,22 +4,23 @@ import numpy as np
 import numpy.typing as npt
 
 
-def bilinear_repeat(image: npt.ArrayLike, uv: npt.ArrayLike) -> np.ndarray:
+def bilinear_repeat(image: npt.ArrayLike, uv: npt.ArrayLike, dtype: npt.DTypeLike = np.float64) -> np.ndarray:
     """(N, C) bilinear lookup of image (H, W, C), row 0 at v = 0, at uv (N, 2), wrapping at the
-    edges (Blender's Image Texture, Linear and Repeat: texel centres at (i + 0.5) / size)."""
+    edges (Blender's Image Texture, Linear and Repeat: texel centres at (i + 0.5) / size), in
+    `dtype` (float32 for many lookups of an 8- or 16-bit image: its rounding is far below a step)."""
     img = np.asarray(image)
     height, width = img.shape[:2]
     flat = img.reshape(height * width, -1)
-    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
-    x = uv[:, 0] * width - 0.5
-    y = uv[:, 1] * height - 0.5
+    uv = np.asarray(uv, dtype=dtype).reshape(-1, 2)
+    x = uv[:, 0] * uv.dtype.type(width) - uv.dtype.type(0.5)
+    y = uv[:, 1] * uv.dtype.type(height) - uv.dtype.type(0.5)
     x0, y0 = np.floor(x), np.floor(y)
     fx, fy = (x - x0)[:, None], (y - y0)[:, None]
     c0, r0 = x0.astype(np.int64) % width, y0.astype(np.int64) % height
     c1, r1 = (c0 + 1) % width, (r0 + 1) % height
 
     def at(r, c):
-        return flat[r * width + c].astype(np.float64)
+        return flat[r * width + c].astype(dtype, copy=False)
 
     low = at(r0, c0) * (1 - fx) + at(r0, c1) * fx
     high = at(r1, c0) * (1 - fx) + at(r1, c1) * fx
