@@ -78,3 +78,18 @@ def test_instances_of_one_image_share_one_copy():
     assert len(albedo.images) == 2 and list(albedo.image_of) == [0, 0, 1, 0]
     which, rho = albedo(np.array([3, 2]), np.array([0.2, 0.2]), np.array([0.3, 0.3]))
     assert which.all() and np.allclose(rho[0], rho[1])
+
+
+def test_the_node_sampling_reaches_the_lookup():
+    """Clip: a hit whose UV falls outside the image reflects nothing; Repeat wraps it back in."""
+    from prt_addon.core.transfer import uv_means
+
+    outside = np.array([[1.2, 0.5], [1.8, 0.5], [1.5, 0.9]])
+    for extension, expected in ((uv_means.CLIP, 0.0), (uv_means.REPEAT, None)):
+        albedo = HitAlbedo(1)
+        albedo.add([0], outside[None], _linear_image(), sampling=(uv_means.CLOSEST, extension))
+        _which, rho = albedo(np.array([0]), np.array([0.25]), np.array([0.25]))
+        uv = outside[0] * 0.5 + outside[1] * 0.25 + outside[2] * 0.25  # (1.425, 0.6): wraps to 0.425
+        texel = (np.floor((uv - np.floor(uv)) * SIZE) + 0.5) / SIZE  # Closest: that texel's centre
+        want = np.zeros(3) if expected is not None else [texel[0], texel[1], 0.25 + 0.5 * texel[0]]
+        np.testing.assert_allclose(rho[0], want, atol=1e-6)

@@ -140,25 +140,6 @@ def test_colour_attribute_slot_beside_an_image_slot(bpy_module, empty_scene, gpu
     assert np.allclose(left, np.array([0.5, 0.0, 0.0]) * SKY, rtol=0.02, atol=1e-4)
 
 
-def _expected_halves(u, extension):
-    """The halves image (red for u in [0, 0.5), blue in [0.5, 1)) at u, away from texel edges, as
-    the Image Texture node's extension continues it outside [0, 1]; None: black (Clip)."""
-    half = np.floor(u / 0.5).astype(int)  # which half-image-wide strip u is in
-    if extension == "REPEAT":
-        red = half % 2 == 0
-    elif extension == "EXTEND":
-        red = np.where(half < 0, True, np.where(half >= 2, False, half == 0))
-    elif extension == "CLIP":
-        red = half % 2 == 0
-    else:  # MIRROR: u -> u mod 2, folded back above 1
-        folded = np.mod(u, 2.0)
-        red = np.where(folded > 1.0, 2.0 - folded, folded) < 0.5
-    colour = np.where(red[:, None], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0])
-    if extension == "CLIP":
-        colour[(half < 0) | (half >= 2)] = 0.0
-    return colour
-
-
 @pytest.mark.parametrize("extension", ["REPEAT", "EXTEND", "CLIP", "MIRROR"])
 @pytest.mark.parametrize("interpolation", ["Linear", "Closest"])
 def test_image_node_extension_and_interpolation(bpy_module, empty_scene, gpu_ready, tmp_path, extension, interpolation):
@@ -190,7 +171,7 @@ def test_image_node_extension_and_interpolation(bpy_module, empty_scene, gpu_rea
     texel = 1.0 / 8.0  # (the halves image is 8 texels wide)
     clear = np.abs(u / 0.5 - np.round(u / 0.5)) * 0.5 > texel  # over a texel from every strip edge
     assert clear.sum() > 20
-    assert np.allclose(row[clear], _expected_halves(u[clear], extension), atol=0.01), row[clear]
+    assert np.allclose(row[clear], albedo_scenes.expected_halves(u[clear], extension), atol=0.01), row[clear]
     # Beside the red/blue edge at u = 0.5, within half a texel: Linear mixes them, Closest not.
     edge = np.abs(u - 0.5) < texel / 2
     weight = np.clip((u[edge] * 8.0 - 0.5) - 3.0, 0.0, 1.0)  # bilinear weight of texel 4 (blue)

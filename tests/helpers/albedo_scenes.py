@@ -134,3 +134,22 @@ def textured_box_scene(bpy, scene, folder, hdri="city", size=(160, 120)):
     scene.view_settings.exposure = 0.0
     bpy.context.view_layer.update()
     return box, ground
+
+
+def expected_halves(u, extension):
+    """The halves image (red for u in [0, 0.5), blue in [0.5, 1)) at u, away from texel edges, as
+    the Image Texture node's extension continues it outside [0, 1]; None: black (Clip)."""
+    half = np.floor(u / 0.5).astype(int)  # which half-image-wide strip u is in
+    if extension == "REPEAT":
+        red = half % 2 == 0
+    elif extension == "EXTEND":
+        red = np.where(half < 0, True, np.where(half >= 2, False, half == 0))
+    elif extension == "CLIP":
+        red = half % 2 == 0
+    else:  # MIRROR: u -> u mod 2, folded back above 1
+        folded = np.mod(u, 2.0)
+        red = np.where(folded > 1.0, 2.0 - folded, folded) < 0.5
+    colour = np.where(red[:, None], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+    if extension == "CLIP":
+        colour[(half < 0) | (half >= 2)] = 0.0
+    return colour

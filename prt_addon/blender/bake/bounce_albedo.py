@@ -165,8 +165,8 @@ def triangle_albedo(obj, mesh, faces, notes, seen, means, corners=None):
 def triangle_images(obj, mesh, faces, corners, means):
     """[(local triangle indices, (k, 3, 2) corner UVs, (H, W, 3) linear image times colour, key)] of
     the loop triangles (faces, corners as triangle_albedo's) whose slot shows an image on a UV map
-    the mesh has: what core.transfer.hit_albedo looks up at each hit; key: (image, colour), the
-    same for every instance of that slot."""
+    the mesh has: what core.transfer.hit_albedo looks up at each hit; key: (image, colour,
+    sampling), the same for every instance of that slot (its last item: the node's sampling)."""
     slots = np.clip(mesh_read.read_face_materials(mesh)[faces], 0, max(len(obj.material_slots) - 1, 0))
     out = []
     for i, slot in enumerate(getattr(obj, "material_slots", [])):
@@ -180,8 +180,8 @@ def triangle_images(obj, mesh, faces, corners, means):
         rgb = means[key][0]
         if len(here) and rgb is not None:
             uvs = mesh_read.read_corner_uvs(mesh, src.uv_map)[corners[here]]
-            tinted = ("tinted", key[1], tuple(src.colour))
-            if tinted not in means:  # (one array per image and colour, however many instances)
+            tinted = ("tinted", key[1], tuple(src.colour), src.sampling)
+            if tinted not in means:  # (one array per image, colour and sampling, however many instances)
                 means[tinted] = np.asarray(rgb, np.float32) * np.asarray(src.colour, np.float32)
             out.append((here, uvs, means[tinted], tinted))
     return out

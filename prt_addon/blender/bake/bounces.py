@@ -89,7 +89,7 @@ class BounceSystem:
         if textured:
             images = hit_albedo.HitAlbedo(len(triangles))
             for index, uvs, image, key in textured:
-                images.add(index, uvs, image, key)
+                images.add(index, uvs, image, key, sampling=key[-1])
             self.sink.set_hit_albedo(images)
         boxes = [raytrace.bounding_box(v) for _o, v, _t in parts]
         for index, first, points, world, tris, src in extra_parts:

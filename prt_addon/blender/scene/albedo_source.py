@@ -4,13 +4,24 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ...core.transfer import uv_means
 from .materials import active_output, colour_attribute
 
 DIFFUSE_INPUTS = {"ShaderNodeBsdfPrincipled": "Base Color", "ShaderNodeBsdfDiffuse": "Color"}
 # An Image Texture node's sampling as the display's albedo_mode: (interpolation, extension).
 # Cubic and Smart are drawn as Linear.
-INTERPOLATION_MODES = {"Linear": 0, "Closest": 1, "Cubic": 0, "Smart": 0}
-EXTENSION_MODES = {"REPEAT": 0, "EXTEND": 1, "CLIP": 2, "MIRROR": 3}
+INTERPOLATION_MODES = {
+    "Linear": uv_means.LINEAR,
+    "Closest": uv_means.CLOSEST,
+    "Cubic": uv_means.LINEAR,
+    "Smart": uv_means.LINEAR,
+}
+EXTENSION_MODES = {
+    "REPEAT": uv_means.REPEAT,
+    "EXTEND": uv_means.EXTEND,
+    "CLIP": uv_means.CLIP,
+    "MIRROR": uv_means.MIRROR,
+}
 
 
 @dataclass(frozen=True)
