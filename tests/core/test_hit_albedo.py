@@ -82,12 +82,12 @@ def test_instances_of_one_image_share_one_copy():
 
 def test_the_node_sampling_reaches_the_lookup():
     """Clip: a hit whose UV falls outside the image reflects nothing; Repeat wraps it back in."""
-    from prt_addon.core.transfer import uv_means
+    from prt_addon.core.transfer import image_sampling
 
     outside = np.array([[1.2, 0.5], [1.8, 0.5], [1.5, 0.9]])
-    for extension, expected in ((uv_means.CLIP, 0.0), (uv_means.REPEAT, None)):
+    for extension, expected in ((image_sampling.CLIP, 0.0), (image_sampling.REPEAT, None)):
         albedo = HitAlbedo(1)
-        albedo.add([0], outside[None], _linear_image(), sampling=(uv_means.CLOSEST, extension))
+        albedo.add([0], outside[None], _linear_image(), sampling=(image_sampling.CLOSEST, extension))
         _which, rho = albedo(np.array([0]), np.array([0.25]), np.array([0.25]))
         uv = outside[0] * 0.5 + outside[1] * 0.25 + outside[2] * 0.25  # (1.425, 0.6): wraps to 0.425
         texel = (np.floor((uv - np.floor(uv)) * SIZE) + 0.5) / SIZE  # Closest: that texel's centre

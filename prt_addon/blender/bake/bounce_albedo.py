@@ -4,9 +4,9 @@ The rule is the display's Material albedo (scene/materials.py) for diffuse shade
 Principled BSDF's Base Color or the Diffuse BSDF's Color; no material: 0.8 grey (Blender's
 default surface); no node tree: the material's viewport colour. A colour that comes from an
 Image Texture node on a UV map the mesh has (the display's rule, scene/albedo_source.py) is the
-image at each ray's hit point (triangle_images: linear, times the source's colour; the triangle's
-mean over its UV triangle, from triangle_albedo, is its entry in the per-triangle table, replaced
-at every hit); other images their mean colour; any other node, the viewport colour.
+image at each ray's hit point (triangle_images: linear, times the source's colour; the
+per-triangle table holds the source's colour there, which every hit replaces); other images
+their mean colour; any other node, the viewport colour.
 A surface whose shader is not diffuse (Glossy, Glass, ...) reflects with its viewport colour, and
 an Emission shader alone reflects nothing (emission is not light for the bake). The report says
 which materials were read these ways. Values above 1 (an energy gain) are clamped to 1, with a
@@ -15,7 +15,6 @@ warning.
 
 import numpy as np
 
-from ...core.transfer import uv_means
 from ..scene import mesh_read
 from ..scene.albedo_source import image_pixels, mesh_source
 from ..scene.materials import active_output, element_albedo
@@ -104,23 +103,27 @@ def _say(note, notes, seen):
         notes.append(note)
 
 
-def _image_triangles(src, mesh, corners, here, means):
-    """(here.sum(), 3) the mean of src's image over each of those triangles' UV triangles, times its
-    colour; None when the image has no pixels."""
+def _pixels(src, means):
+    """(linear (H, W, 3) pixels or None, note) of src's image, read once per image into `means`."""
     key = ("pixels", src.image.as_pointer())
     if key not in means:
         means[key] = image_pixels(src.image)
-    rgb, note = means[key]
+    return means[key]
+
+
+def _image_triangles(src, here, means):
+    """(here.sum(), 3) those triangles' entries in the per-triangle table, src's colour (each hit
+    looks the image up instead: triangle_images), or None when the image has no pixels."""
+    rgb, note = _pixels(src, means)
     if rgb is None:
         return None, note
-    uv = mesh_read.read_corner_uvs(mesh, src.uv_map)[corners[here]]
-    return uv_means.triangle_means(rgb, uv) * np.asarray(src.colour), note
+    return np.tile(np.asarray(src.colour, np.float64), (int(here.sum()), 1)), note
 
 
 def _slot_triangles(src, mesh, corners, here, means):
     """((here.sum(), 3) albedo of those triangles from an IMAGE or ATTRIBUTE source, or None, note)."""
     if src.kind == "IMAGE":
-        values, note = _image_triangles(src, mesh, corners, here, means)
+        values, note = _image_triangles(src, here, means)
         if values is not None:
             note = f"'{src.image.name}': bounced light uses the image at each hit"
         return values, note
@@ -132,8 +135,8 @@ def _slot_triangles(src, mesh, corners, here, means):
 def triangle_albedo(obj, mesh, faces, notes, seen, means, corners=None):
     """(T, 3) albedo of the loop triangles whose faces are `faces` (corners: their (T, 3) corner
     indices), clamped to [0, 1]. A slot whose colour is an image on a UV map the mesh has
-    (albedo_source.mesh_source) takes the image's mean over each triangle's UV triangle; one whose
-    colour is a colour attribute, the mean of the triangle's corners."""
+    (albedo_source.mesh_source) takes the source's colour (its hits look the image up:
+    triangle_images); one whose colour is a colour attribute, the mean of the triangle's corners."""
     slots = mesh_read.read_face_materials(mesh)[faces]
     sources = {}
     if corners is not None:
@@ -163,10 +166,10 @@ def triangle_albedo(obj, mesh, faces, notes, seen, means, corners=None):
 
 
 def triangle_images(obj, mesh, faces, corners, means):
-    """[(local triangle indices, (k, 3, 2) corner UVs, (H, W, 3) linear image times colour, key)] of
-    the loop triangles (faces, corners as triangle_albedo's) whose slot shows an image on a UV map
-    the mesh has: what core.transfer.hit_albedo looks up at each hit; key: (image, colour,
-    sampling), the same for every instance of that slot (its last item: the node's sampling)."""
+    """[(local triangle indices, (k, 3, 2) corner UVs, (H, W, 3) linear image times colour, the
+    node's sampling, key)] of the loop triangles (faces, corners as triangle_albedo's) whose slot
+    shows an image on a UV map the mesh has: what core.transfer.hit_albedo looks up at each hit;
+    key: the same for every instance of that slot (image, colour and sampling)."""
     slots = np.clip(mesh_read.read_face_materials(mesh)[faces], 0, max(len(obj.material_slots) - 1, 0))
     out = []
     for i, slot in enumerate(getattr(obj, "material_slots", [])):
@@ -174,14 +177,11 @@ def triangle_images(obj, mesh, faces, corners, means):
         if src is None or src.kind != "IMAGE":
             continue
         here = np.flatnonzero(slots == i)
-        key = ("pixels", src.image.as_pointer())
-        if key not in means:
-            means[key] = image_pixels(src.image)
-        rgb = means[key][0]
+        rgb = _pixels(src, means)[0]
         if len(here) and rgb is not None:
             uvs = mesh_read.read_corner_uvs(mesh, src.uv_map)[corners[here]]
-            tinted = ("tinted", key[1], tuple(src.colour), src.sampling)
+            tinted = ("tinted", src.image.as_pointer(), tuple(src.colour), src.sampling)
             if tinted not in means:  # (one array per image, colour and sampling, however many instances)
                 means[tinted] = np.asarray(rgb, np.float32) * np.asarray(src.colour, np.float32)
-            out.append((here, uvs, means[tinted], tinted))
+            out.append((here, uvs, means[tinted], src.sampling, tinted))
     return out

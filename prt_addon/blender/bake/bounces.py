@@ -58,8 +58,8 @@ class BounceSystem:
                 node_triangles.append(local.astype(np.int64) + offset)
                 count = len(points.positions)
             albedo.append(triangle_albedo(src.obj, src.mesh, faces, self.notes, seen, means, corners))
-            for here, uvs, image, key in triangle_images(src.obj, src.mesh, faces, corners, means):
-                textured.append((first_triangle + here, uvs, image, key))  # (their albedo per hit)
+            for here, uvs, image, sampling, key in triangle_images(src.obj, src.mesh, faces, corners, means):
+                textured.append((first_triangle + here, uvs, image, sampling, key))  # (their albedo per hit)
             # A mirrored part (negative determinant) has its winding, hence its geometric
             # normals, reversed in world space: flip them back so its front faces stay front.
             orientation.append(np.full(len(faces), -1.0 if mirrored else 1.0))
@@ -72,7 +72,8 @@ class BounceSystem:
         self.n_nodes = offset
         albedo = np.concatenate(albedo) if albedo else np.zeros((0, 3))
         grey = bool(np.all(albedo == albedo[:, :1]))
-        grey = grey and all(np.all(image == image[..., :1]) for _i, _u, image, _k in textured)
+        images = {key: image for _i, _u, image, _s, key in textured}  # (each image once, not per instance)
+        grey = grey and all(np.all(image == image[..., :1]) for image in images.values())
         self.channels = 1 if grey else 3
         vertices, triangles = concatenate_parts(parts)
         self.sink = bounce_hits.HitTransport(
@@ -87,10 +88,10 @@ class BounceSystem:
         if remap.parts:
             self.sink.remap = remap
         if textured:
-            images = hit_albedo.HitAlbedo(len(triangles))
-            for index, uvs, image, key in textured:
-                images.add(index, uvs, image, key, sampling=key[-1])
-            self.sink.set_hit_albedo(images)
+            lookup = hit_albedo.HitAlbedo(len(triangles))
+            for index, uvs, image, sampling, key in textured:
+                lookup.add(index, uvs, image, key, sampling)
+            self.sink.set_hit_albedo(lookup)
         boxes = [raytrace.bounding_box(v) for _o, v, _t in parts]
         for index, first, points, world, tris, src in extra_parts:
             self.node_computations.append((first, self._computation(job, points, world, tris, src, boxes, index)))

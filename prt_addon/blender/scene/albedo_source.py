@@ -4,23 +4,23 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ...core.transfer import uv_means
+from ...core.transfer import image_sampling
 from .materials import active_output, colour_attribute
 
 DIFFUSE_INPUTS = {"ShaderNodeBsdfPrincipled": "Base Color", "ShaderNodeBsdfDiffuse": "Color"}
 # An Image Texture node's sampling as the display's albedo_mode: (interpolation, extension).
 # Cubic and Smart are drawn as Linear.
 INTERPOLATION_MODES = {
-    "Linear": uv_means.LINEAR,
-    "Closest": uv_means.CLOSEST,
-    "Cubic": uv_means.LINEAR,
-    "Smart": uv_means.LINEAR,
+    "Linear": image_sampling.LINEAR,
+    "Closest": image_sampling.CLOSEST,
+    "Cubic": image_sampling.LINEAR,
+    "Smart": image_sampling.LINEAR,
 }
 EXTENSION_MODES = {
-    "REPEAT": uv_means.REPEAT,
-    "EXTEND": uv_means.EXTEND,
-    "CLIP": uv_means.CLIP,
-    "MIRROR": uv_means.MIRROR,
+    "REPEAT": image_sampling.REPEAT,
+    "EXTEND": image_sampling.EXTEND,
+    "CLIP": image_sampling.CLIP,
+    "MIRROR": image_sampling.MIRROR,
 }
 
 

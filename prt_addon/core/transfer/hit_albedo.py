@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from .uv_means import sample_image
+from .image_sampling import sample_image
 
 
 class HitAlbedo:
@@ -15,14 +15,14 @@ class HitAlbedo:
     Called with hit triangles and their barycentrics (b1, b2: the weights of corners 1 and 2, as
     core.transfer.bounce_hits.hit_barycentrics gives them divided by det), it returns which hits
     are textured and their albedo, the image looked up as its node samples it
-    (uv_means.sample_image) at uv = (1 - b1 - b2) uv_0 + b1 uv_1 + b2 uv_2.
+    (image_sampling.sample_image) at uv = (1 - b1 - b2) uv_0 + b1 uv_1 + b2 uv_2.
     """
 
     def __init__(self, n_triangles: int) -> None:
         self.image_of = np.full(n_triangles, -1, np.int32)
         self.uvs = np.zeros((n_triangles, 3, 2), np.float32)
         self.images: list[np.ndarray] = []
-        self.sampling: list[tuple[int, int]] = []  # per image: (interpolation, extension), uv_means' numbers
+        self.sampling: list[tuple[int, int]] = []  # per image: (interpolation, extension), image_sampling' numbers
         self._keys: dict[object, int] = {}
 
     def add(

@@ -1,4 +1,4 @@
-"""An image's mean over UV triangles (a bounce's albedo per triangle): bilinear lookups at sub-triangle centroids."""
+"""An image looked up at UV points as Blender's Image Texture node samples it: its interpolation and extension."""
 
 import numpy as np
 import numpy.typing as npt
@@ -57,35 +57,3 @@ def sample_image(
     low = at(c0, r0) * (1 - fx) + at(c0 + 1, r0) * fx
     high = at(c0, r0 + 1) * (1 - fx) + at(c0 + 1, r0 + 1) * fx
     return low * (1 - fy) + high * fy
-
-
-def bilinear_repeat(image: npt.ArrayLike, uv: npt.ArrayLike, dtype: npt.DTypeLike = np.float64) -> np.ndarray:
-    """sample_image with Blender's Image Texture defaults, Linear and Repeat."""
-    return sample_image(image, uv, dtype)
-
-
-def centroid_barycentrics(n: int) -> np.ndarray:
-    """(n * n, 3) barycentrics of the centroids of a triangle's n x n equal sub-triangles: a
-    midpoint rule, each point of weight 1 / n^2."""
-    points = []
-    for i in range(n):
-        for j in range(n - i):
-            points.append(((i + 1 / 3) / n, (j + 1 / 3) / n))
-            if i + j <= n - 2:
-                points.append(((i + 2 / 3) / n, (j + 2 / 3) / n))
-    ab = np.array(points)
-    return np.c_[ab, 1.0 - ab.sum(axis=1)]
-
-
-def triangle_means(image: npt.ArrayLike, uv_triangles: npt.ArrayLike, n: int = 4, block: int = 1 << 16) -> np.ndarray:
-    """(T, C) mean of image over each UV triangle of uv_triangles (T, 3, 2): the midpoint rule on
-    n x n sub-triangles, bilinear with repeat."""
-    tri = np.asarray(uv_triangles, dtype=np.float64).reshape(-1, 3, 2)
-    bary = centroid_barycentrics(n)
-    img = np.asarray(image)
-    out = np.empty((len(tri), img.shape[2] if img.ndim == 3 else 1))
-    for a in range(0, len(tri), block):
-        part = tri[a : a + block]
-        uv = np.einsum("kj,tjc->tkc", bary, part).reshape(-1, 2)
-        out[a : a + block] = bilinear_repeat(img, uv).reshape(len(part), len(bary), -1).mean(axis=1)
-    return out
