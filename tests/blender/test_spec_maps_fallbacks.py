@@ -71,7 +71,7 @@ def test_the_pixels_read(bpy_module, empty_scene, tmp_path):
     bpy = bpy_module
     image = _data_image(bpy, size=1)
     image.pixels.foreach_set(np.array([0.2, 0.6, 1.0, 0.4], np.float32))
-    byte = lambda x: np.round(np.array(x) * 255) / 255  # noqa: E731
+    byte = lambda x: np.round(np.array(x) * 255) / 255
     assert map_pixels(image, 1)[0][0, 0] == pytest.approx(byte(0.6), abs=1e-6)
     lum = byte([0.2, 0.6, 1.0]) @ np.array([0.2126, 0.7152, 0.0722])
     assert map_pixels(image, LUMINANCE, 0.5)[0][0, 0] == pytest.approx(0.5 * lum, abs=1e-6)

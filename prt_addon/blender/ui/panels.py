@@ -3,8 +3,8 @@
 import bpy
 
 from ..display.albedo_texture import notes as albedo_notes
-from ..display.material_maps import notes as map_notes
 from ..display.draw import draws_in
+from ..display.material_maps import notes as map_notes
 from ..scene import lighting, storage
 from ..world import light_split, nodes
 from .bake_panel import VIEW3D_PT_prt_bake, VIEW3D_PT_prt_bake_options, VIEW3D_PT_prt_bake_report
