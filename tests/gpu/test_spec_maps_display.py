@@ -63,3 +63,38 @@ def test_the_map_draws_each_quadrant_as_its_constants(bpy_module, sphere):
         off = np.abs(unused_constants[mask] - expected[mask]).mean() / expected[mask].mean()
         assert off > 0.05, (q, off)
         _use(obj, material)
+
+
+def test_a_specular_level_map_draws_each_half_as_its_constant(bpy_module, sphere):
+    """Specular IOR Level from an image's Color (its luminance: grey 0 and 1 by halves of u) on a
+    glossy dielectric: each half as the sphere drawn with that constant level (the dielectric F0 per
+    pixel), within 1 % of its mean; the two levels differ by more than 3 % there."""
+    import prt_addon.api as api
+
+    bpy = bpy_module
+    scene, obj = sphere
+    ids = maps.quadrant_image(bpy, "ids", maps.ID_COLOURS, "sRGB")
+    _use(obj, maps.id_material(bpy, ids))
+    scene.prt_display.specular = False
+    masks = maps.quadrant_masks(api.render_view(scene))
+    scene.prt_display.specular = True
+    levels = {q: (0.0 if q[0] == 0 else 1.0) for q in maps.QUADRANTS}
+    image = maps.quadrant_image(bpy, "levels", {q: (x, x, x) for q, x in levels.items()})
+    material, bsdf = maps.principled(bpy, "level", roughness=0.2, metallic=0.0)
+    tex = material.node_tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    material.node_tree.links.new(tex.outputs["Color"], bsdf.inputs["Specular IOR Level"])
+    _use(obj, material)
+    drawn = api.render_view(scene)[..., :3]
+    constants = {}
+    for level in (0.0, 1.0):
+        constant, constant_bsdf = maps.principled(bpy, f"l{level}", roughness=0.2, metallic=0.0)
+        constant_bsdf.inputs["Specular IOR Level"].default_value = level
+        _use(obj, constant)
+        constants[level] = api.render_view(scene)[..., :3]
+    for q, level in levels.items():
+        mask = masks[q]
+        expected, other = constants[level][mask], constants[1.0 - level][mask]
+        error = np.abs(drawn[mask] - expected).max() / expected.mean()
+        apart = np.abs(other - expected).mean() / expected.mean()
+        assert error < 0.01 and apart > 0.03, (q, error, apart)  # (measured: 0 and 4.9-7.1 %)
