@@ -1,9 +1,7 @@
 """A sphere whose Roughness and Metallic come from a metallic-roughness image: render_view against Cycles (direct light only), each quadrant beside the same comparison for the quadrant's constant material."""
 
 import numpy as np
-import pytest
-from helpers import spec_map_scenes as maps
-from helpers import specular_scenes as ss
+from helpers import spec_map_scenes as maps, specular_scenes as ss
 from helpers.display_scenes import add_camera
 from helpers.worlds import bundled_hdri_path, new_world, use_image
 
