@@ -98,3 +98,34 @@ def test_a_specular_level_map_draws_each_half_as_its_constant(bpy_module, sphere
         error = np.abs(drawn[mask] - expected).max() / expected.mean()
         apart = np.abs(other - expected).mean() / expected.mean()
         assert error < 0.01 and apart > 0.03, (q, error, apart)  # (measured: 0 and 4.9-7.1 %)
+
+
+def test_fallbacks_draw_the_constants(bpy_module, sphere, tmp_path):
+    """A roughness image whose file is missing draws the socket's constant, pixel for pixel as the
+    unlinked material; a float image of roughness 3 and metallic -1 draws as roughness 1 and
+    metallic 0 (clamped), and the panel says so once it was read."""
+    import prt_addon.api as api
+    from prt_addon.blender.display.material_maps import notes
+
+    bpy = bpy_module
+    scene, obj = sphere
+    plain, _bsdf = maps.principled(bpy, "plain", roughness=0.5, metallic=0.5)
+    _use(obj, plain)
+    expected = api.render_view(scene)
+    gone = bpy.data.images.new("gone", 4, 4)
+    gone.source = "FILE"
+    gone.filepath = str(tmp_path / "gone.png")
+    gone.reload()
+    missing, _tex = maps.orm_material(bpy, gone)
+    _use(obj, missing)
+    assert np.array_equal(api.render_view(scene), expected)
+    assert any("'gone' has no pixels" in note for note in notes(obj))
+    hdr = bpy.data.images.new("hdr", 4, 4, float_buffer=True)
+    hdr.pixels.foreach_set(np.tile(np.array([1.0, 3.0, -1.0, 1.0], np.float32), 16))
+    _use(obj, maps.orm_material(bpy, hdr, name="hdr")[0])
+    clamped = api.render_view(scene)
+    assert "image 'hdr': values outside 0 to 1 clamped" in notes(obj)
+    _use(obj, maps.principled(bpy, "ends", roughness=1.0, metallic=0.0)[0])
+    ends = api.render_view(scene)
+    covered = ends[..., 3] > 0.99
+    assert np.abs(clamped - ends)[covered].max() < 1e-3 * ends[covered].max()
