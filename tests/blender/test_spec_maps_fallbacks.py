@@ -175,3 +175,45 @@ def test_maps_on_another_uv_map_than_the_base_colour_fall_back(bpy_module, empty
     obj.data.uv_layers.new(name="second")
     (found,) = slot_maps(obj, slot_sources(obj))
     assert not found.any and "on UV map 'second', the material's other image on 'UVMap'" in found.notes[0]
+
+
+class _Layout:
+    """Records the labels a panel's draw() puts in it."""
+
+    def __init__(self, log):
+        self.log = log
+
+    def label(self, text="", **_kw):
+        self.log.append(text)
+
+    def prop(self, *_args, **_kw):
+        pass
+
+    def row(self, **_kw):
+        return self
+
+    column = row
+
+
+@pytest.mark.parametrize("specular", [False, True])
+def test_display_panel_says_why_a_map_is_not_drawn(bpy_module, empty_scene, tmp_path, specular):
+    """With Specular on, the Display panel says why a roughness image is drawn as its constant;
+    with it off (no specular drawn) it says nothing of it."""
+    import types
+
+    from helpers.display_scenes import write_bake
+
+    from prt_addon.blender.ui import panels
+
+    bpy = bpy_module
+    image = bpy.data.images.new("gone", 4, 4)
+    image.source = "FILE"
+    image.filepath = str(tmp_path / "gone.png")
+    obj = _plane(bpy, _linked(bpy, image)[0])
+    write_bake(obj, np.zeros((4, 9)), 3)
+    empty_scene.prt_display.specular = specular
+    log = []
+    context = types.SimpleNamespace(scene=empty_scene, active_object=obj, region=types.SimpleNamespace(width=2000))
+    panels.VIEW3D_PT_prt_display.draw(types.SimpleNamespace(layout=_Layout(log)), context)
+    said = [line for line in log if "'gone' has no pixels" in line and "its constant is used" in line]
+    assert bool(said) == specular, log
