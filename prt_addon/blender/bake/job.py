@@ -228,7 +228,7 @@ class BakeJob:
                     more = comp.step()
                     if more and following is not None and comp.fully_queued:
                         following.start()  # (its slices queue behind the last ones: no thread waits)
-                    yield self.fraction, f"{label}: {100.0 * self.fraction:.0f} %"
+                    yield (done := self.fraction), f"{label}: {100.0 * done:.0f} %"  # (one sum a step)
                     if not more:
                         break
                 comp.close()
