@@ -209,8 +209,12 @@ def prepare_texels(plan, mesh_eval, positions, settings, others, build_occluder,
     vertices, triangles = concatenate_parts(others) if others else (None, np.zeros((0, 3)))
     if len(triangles):
         occluder = build_occluder(vertices, triangles)
-        p, n = samples.positions, samples.normals  # (every sample in one call: one pass)
-        under = contact.under_other_surfaces(p, n, plan.offset, occluder, vertices, triangles).reshape(p.shape[:2])
+        under = np.stack(
+            [
+                contact.under_other_surfaces(p, n, plan.offset, occluder, vertices, triangles)
+                for p, n in zip(samples.positions, samples.normals)
+            ]
+        )
         if under.any():
             samples.normals[under] = 0.0
             count = int(under.any(axis=0).sum())
