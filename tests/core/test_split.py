@@ -119,3 +119,44 @@ def test_computations_accumulating_into_one_array_give_the_mean_of_their_results
     np.testing.assert_allclose(total, 0.5 * (own[0] + own[1]), rtol=0, atol=1e-6)
     with pytest.raises(ValueError, match="accumulate"):
         transfer.TransferComputation(p0, n0, dirs, 3, accumulate=np.zeros((50, 16), np.float32))
+
+
+def test_pump_collects_finished_slices_without_waiting_and_changes_nothing():
+    """pump() between other work collects the slices that are done, queues more, never blocks, and
+    the result is the same, bit for bit, as stepping alone; it does nothing before start()."""
+    positions, normals = _points(600, seed=4)
+    stacked = np.stack([positions + 0.001 * s for s in range(4)])
+    dirs = make_directions("FIBONACCI", 256, seed=5)
+    wall = WallOccluder(0.2, 0.5)
+
+    def make():
+        return split.SplitComputation(
+            stacked,
+            np.broadcast_to(normals, stacked.shape),
+            dirs,
+            4,
+            occluder=wall,
+            offset=1e-4,
+            threads=2,
+            chunk_rays=1 << 12,
+        )
+
+    plain = make()
+    want = plain.run().coeffs.copy()
+    plain.close()
+    comp = make()
+    comp.pump()
+    assert comp.done == 0 and comp.fraction == 0.0  # (not started: nothing queued)
+    comp.start()
+    first = comp._parts[0]._pending[0][2]
+    first.result(timeout=30)
+    comp.pump()
+    assert comp._parts[0].done > 0  # the finished slice was collected
+    assert len(comp._parts[0]._pending) > 0  # and more are queued
+    pumps = 0
+    while comp.done < comp.total and pumps < 100000:
+        comp.pump()
+        pumps += 1
+    got = comp.run().coeffs
+    comp.close()
+    assert np.array_equal(got, want)
