@@ -83,12 +83,13 @@ class BakeJob:
             if scene is not None and any(self._may_trace(p) for p in self.plans if p.occluder is scene):
                 scene.start(self._pool)
             self.directions = make_directions(self.settings.direction_set, self.settings.samples, self.settings.seed)
-            # Each object's slices start as soon as its points are ready and trace while the next
-            # objects' points (texel bakes: their samples) are read, the started ones collected and
-            # refilled between objects (pump), and, with bounces, while the bounce system reads its
-            # tables (which need every part's nodes): the hits that come before those are kept as
-            # they came until the slice is collected (core.transfer.bounce_hits.LateSink).
-            for index, plan in enumerate(self.plans):
+            # Each object's slices start as soon as its points are ready: they trace while the
+            # following objects' points (texel bakes: their rasterised samples) are read and, in
+            # an interreflected bake, while the bounce system reads its tables (which need every
+            # part's nodes): hits that come before those are kept as they came until the slice is
+            # collected (core.transfer.bounce_hits.LateSink). Queued in object order, so the
+            # workers keep to it: steps() collects them in that order.
+            for plan in self.plans:
                 mesh_eval, positions = plan.source
                 if bakes_texels(plan, self.settings):
                     self._texel_plan(plan, mesh_eval, positions)
@@ -98,8 +99,6 @@ class BakeJob:
                 plan.computation = self._computation(plan)
                 plan.back = back_computation(self, plan)
                 plan.computation.start()
-                for made in self.plans[: index + 1]:
-                    made.computation.pump()
             if self.settings.bounces:
                 self.bounce = BounceSystem(self, self._parts, self._sources)
                 self._sink.set(self.bounce.sink)
@@ -123,7 +122,8 @@ class BakeJob:
 
     @staticmethod
     def _may_trace(plan):
-        """Whether culling leaves it any ray: its own mesh can occlude it, others exist, or no culling."""
+        """Whether any ray of the plan can be traced (else culling skips them all): its own mesh
+        can occlude it, other occluders exist, or culling is off."""
         return plan.boxes is None or len(plan.boxes) > 0 or bool(plan.self_occludes)
 
     def _assign_occluders(self):

@@ -200,11 +200,6 @@ class AdaptiveComputation:
         comp.close()
         self._current = None
 
-    def pump(self) -> None:
-        """The current pass's pump (core.transfer.split): collect and queue, never waiting."""
-        if self._current is not None:
-            self._current[1].pump()
-
     def step(self) -> bool:
         self.start()
         more = False

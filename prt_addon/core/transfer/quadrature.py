@@ -55,7 +55,6 @@ RAY_BYTES = 80
 # The last workspace made in each thread: the computations of one job (several objects, the
 # direction subsets of a texel bake) reuse it instead of touching fresh pages each.
 _THREAD = threading.local()
-_WORKSPACE = (("weight", np.float64), ("above", bool), ("dirs", _RAY16), ("origins", _RAY16), ("index", np.intp))
 
 
 class TransferComputation:
@@ -173,7 +172,9 @@ class TransferComputation:
         self._cancel = True
 
     def close(self) -> None:
-        futures_wait([f for _a, _b, f in self._pending if not f.cancel()])  # (the running ones)
+        for _a, _b, future in self._pending:
+            future.cancel()
+        futures_wait([f for _a, _b, f in self._pending])
         self._pending.clear()
         if self._pool is not None and self._own_pool:
             self._pool.shutdown(wait=True)
@@ -201,7 +202,13 @@ class TransferComputation:
             if shared is not None and len(shared["weight"]) >= size:
                 self._local.ws = shared
                 return shared
-            ws = self._local.ws = _THREAD.ws = {name: np.empty(size, dtype) for name, dtype in _WORKSPACE}
+            ws = self._local.ws = _THREAD.ws = {
+                "weight": np.empty(size),
+                "above": np.empty(size, dtype=bool),
+                "dirs": np.empty(size, dtype=_RAY16),
+                "origins": np.empty(size, dtype=_RAY16),
+                "index": np.empty(size, dtype=np.intp),
+            }
         return ws
 
     def _block(self, lo, hi, k0, k1, needs):
@@ -330,19 +337,11 @@ class TransferComputation:
             self._next = b
 
     def start(self) -> None:
-        """Queue the first slices (threads > 1), to run while the caller works; stats.seconds starts here."""
+        """Queue the first slices now (threads > 1), so that they run while the caller does
+        other work; step() collects them. The wall time (stats.seconds) starts here."""
         if self._started is None:
             self._started = time.perf_counter()
         if self.threads > 1 and self.done < self.total and not self._cancel:
-            self._submit()
-
-    def pump(self) -> None:
-        """Collect the finished slices and queue as many more, never waiting (a job, between the
-        objects it reads; not with a hit sink, whose entries may wait for the bounce system)."""
-        if self.threads > 1 and self._started is not None and self.hit_sink is None and not self._cancel:
-            while self._pending and self._pending[0][2].done():
-                a, b, future = self._pending.popleft()
-                self._collect(a, b, future.result())
             self._submit()
 
     def step(self) -> bool:
@@ -354,31 +353,30 @@ class TransferComputation:
         self.start()
         for _ in range(self.threads * SLICES_PER_THREAD):
             if self.threads > 1:
-                # Slices stay queued ahead of the one collected, so a worker that finishes takes the
-                # next at once, also between steps. Only `threads` run at a time (the memory bound).
+                # Slices stay queued ahead of the one collected, so a worker that finishes takes
+                # the next slice at once, also between step() calls: no thread waits for another
+                # at chunk boundaries. Only `threads` slices run at a time (the memory bound).
                 self._submit()
                 a, b, future = self._pending.popleft()
-                self._collect(a, b, future.result())
+                t, err, stats, entries = future.result()
             else:
                 a, b = self.done, min(self.total, self.done + self.points_per_slice)
-                self._collect(a, b, self._slice(a, b))
+                t, err, stats, entries = self._slice(a, b)
+            if self.hit_sink is not None:  # (a callable: entries the sink could not make yet)
+                self.hits.extend(e() if callable(e) else e for e in entries)
+            if self._accumulate_weight is None:
+                self.coeffs[a:b] = t
+            else:
+                t *= self._accumulate_weight
+                self.coeffs[a:b] += t
+            self.error[a:b] = err
+            self.stats.add(stats)
+            self.done = b
             if self.done >= self.total:
                 break
+        # Wall time since the first step (workers also run between steps).
+        self.stats.seconds = time.perf_counter() - self._started
         return self.done < self.total
-
-    def _collect(self, a, b, sliced):
-        t, err, stats, entries = sliced
-        if self.hit_sink is not None:  # (a callable: entries the sink could not make yet)
-            self.hits.extend(e() if callable(e) else e for e in entries)
-        if self._accumulate_weight is None:
-            self.coeffs[a:b] = t
-        else:
-            t *= self._accumulate_weight
-            self.coeffs[a:b] += t
-        self.error[a:b] = err
-        self.stats.add(stats)
-        self.done = b
-        self.stats.seconds = time.perf_counter() - self._started  # (since start(): workers run between steps)
 
     def result(self) -> TransferResult:
         return TransferResult(self.coeffs, self.error, self.stats)

@@ -165,18 +165,6 @@ class SplitComputation:
         self._seconds = time.perf_counter() - (self._started or 0.0)
         return more
 
-    def pump(self) -> None:
-        """Collect the current subset's finished slices and queue more, never waiting."""
-        part = self._parts[self._current]
-        part.pump()
-        following = self._current + 1 < len(self._parts)
-        if following and part.done >= part.total:
-            self._current += 1
-            self._parts[self._current].start()
-            self._parts[self._current].pump()
-        elif following and part.fully_queued:
-            self._parts[self._current + 1].start()
-
     def close(self) -> None:
         for part in self._parts:
             part.close()
