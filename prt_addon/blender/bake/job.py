@@ -83,13 +83,11 @@ class BakeJob:
             if scene is not None and any(self._may_trace(p) for p in self.plans if p.occluder is scene):
                 scene.start(self._pool)
             self.directions = make_directions(self.settings.direction_set, self.settings.samples, self.settings.seed)
-            # Each object's slices start as soon as its points are ready: they trace while the
-            # following objects' points (texel bakes: their rasterised samples) are read and, in
-            # an interreflected bake, while the bounce system reads its tables (which need every
-            # part's nodes): hits that come before those are kept as they came until the slice is
-            # collected (core.transfer.bounce_hits.LateSink). Queued in object order, so the
-            # workers keep to it: steps() collects them in that order.
-            for plan in self.plans:
+            # The first object's slices start as soon as its points are ready: they trace while
+            # the other objects' points are read and, in an interreflected bake, while the bounce
+            # system reads its tables (which need every part's nodes): hits that come before
+            # those are kept as they came until the slice is collected (core.transfer.bounce_hits.LateSink).
+            for index, plan in enumerate(self.plans):
                 mesh_eval, positions = plan.source
                 if bakes_texels(plan, self.settings):
                     self._texel_plan(plan, mesh_eval, positions)
@@ -98,7 +96,8 @@ class BakeJob:
                 plan.source = None
                 plan.computation = self._computation(plan)
                 plan.back = back_computation(self, plan)
-                plan.computation.start()
+                if index == 0:
+                    plan.computation.start()
             if self.settings.bounces:
                 self.bounce = BounceSystem(self, self._parts, self._sources)
                 self._sink.set(self.bounce.sink)
