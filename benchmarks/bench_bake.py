@@ -199,8 +199,8 @@ def throughput(args):
         print(f"  raw embreex, shared buffers + BVH build + batches RBs {spread(shared_s)}  {m(shared_s):6.2f} Mrays/s")
         print("ratios per repeat (raw time / bake time), median [min - max]; target >= 0.85 for the")
         print("whole call against raw embreex as it ships (RB); against the same shared-buffer build")
-        print("(RBs) and against tracing alone (R) below it. Each object's slices start as its points")
-        print("are made, during the job's set-up, so compute misses a few (compute ratios read high):")
+        print("(RBs) and against tracing alone (R) below it. The first object's slices start during")
+        print("the job's set-up, so compute misses a few of them (compute ratios read 1-3 % high):")
         print(
             f"  whole call / RB (+ extraction, writing) wall {spread(built_s / bake_s)}   "
             f"CPU {spread(built_cpu / bake_cpu)}"
