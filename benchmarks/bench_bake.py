@@ -63,7 +63,9 @@ def same_rays(objects, samples):
     job = bake_job.BakeJob(objects, bake_settings.BakeSettings(order=4, samples=samples, backend="EMBREE"))
     parts = scene_parts.scene_parts(bpy.context.evaluated_depsgraph_get())
     vertices, triangles = core_mesh.concatenate_parts(parts)
-    batches = [b for plan in job.plans for b in plan.computation.iter_rays()]
+    # In the order the job traces them: every object's front, then the open meshes' back sides.
+    computations = [p.computation for p in job.plans] + [p.back for p in job.plans if p.back is not None]
+    batches = [b for comp in computations for b in comp.iter_rays()]
     job.close()
     origins = np.ascontiguousarray(np.concatenate([o for o, _d in batches]))
     dirs = np.ascontiguousarray(np.concatenate([d for _o, d in batches]))

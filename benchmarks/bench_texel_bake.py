@@ -44,9 +44,10 @@ def room(res):
 
 
 def bake_seconds(objs, options, threads):
-    t0 = time.perf_counter()
+    """(wall seconds, process CPU seconds, report) of one bake."""
+    c0, t0 = time.process_time(), time.perf_counter()
     report = api.bake(objs, threads=threads, **options)
-    return time.perf_counter() - t0, report
+    return time.perf_counter() - t0, time.process_time() - c0, report
 
 
 def raw_seconds(objs, options, threads):
@@ -57,7 +58,9 @@ def raw_seconds(objs, options, threads):
     job.close()
     parts = scene_parts.scene_parts(bpy.context.evaluated_depsgraph_get())
     occ = raytrace.EmbreeOccluder(*core_mesh.concatenate_parts(parts))
-    return raw_batches_seconds(occ, batches, threads), sum(len(o) for o, _d in batches)
+    c0 = time.process_time()
+    wall = raw_batches_seconds(occ, batches, threads)
+    return wall, time.process_time() - c0, sum(len(o) for o, _d in batches)
 
 
 def speed(res, threads, repeats):
@@ -65,18 +68,30 @@ def speed(res, threads, repeats):
     own rays, and the adaptive bake against raw Embree on every texel's rays; pairs interleaved."""
     objs, options = room(res)
     full = dict(options, adaptive=0.0)
-    runs = {"full": [], "adaptive": [], "raw full": [], "raw adaptive": []}
+    names = ("full", "adaptive", "raw full", "raw adaptive")
+    runs = {name: [] for name in names}
+    cpu = {name: [] for name in names}  # process CPU seconds (less sensitive to other jobs)
+    load = os.getloadavg()[0]
     for _ in range(repeats):
-        raw_full, rays_full = raw_seconds(objs, full, threads)
-        seconds_full, report_full = bake_seconds(objs, full, threads)
-        raw_adaptive, rays_adaptive = raw_seconds(objs, options, threads)
-        seconds, report = bake_seconds(objs, options, threads)
-        for name, value in zip(runs, (seconds_full, seconds, raw_full, raw_adaptive)):
+        raw_full, raw_full_cpu, rays_full = raw_seconds(objs, full, threads)
+        seconds_full, full_cpu, report_full = bake_seconds(objs, full, threads)
+        raw_adaptive, raw_adaptive_cpu, rays_adaptive = raw_seconds(objs, options, threads)
+        seconds, adaptive_cpu, report = bake_seconds(objs, options, threads)
+        for name, value, used in zip(
+            names,
+            (seconds_full, seconds, raw_full, raw_adaptive),
+            (full_cpu, adaptive_cpu, raw_full_cpu, raw_adaptive_cpu),
+        ):
             runs[name].append(value)
+            cpu[name].append(used)
     med = {name: statistics.median(values) for name, values in runs.items()}
     ratio = lambda a, b: statistics.median(x / y for x, y in zip(runs[a], runs[b]))
     listing = lambda a, b: ", ".join(f"{x / y:.2f}" for x, y in zip(runs[a], runs[b]))
-    print(f"room, {len(objs)} objects, {res} x {res} texels each, order 4, 256 directions, {threads} threads:")
+    cpu_ratio = lambda a, b: statistics.median(x / y for x, y in zip(cpu[a], cpu[b]))
+    print(
+        f"room, {len(objs)} objects, {res} x {res} texels each, order 4, 256 directions, {threads} threads "
+        f"({repeats} pairs; load average {load:.1f} before, {os.getloadavg()[0]:.1f} after):"
+    )
     for name, rep, rays, key in (
         ("every texel", report_full, rays_full, "full"),
         ("adaptive", report, rays_adaptive, "adaptive"),
@@ -98,6 +113,10 @@ def speed(res, threads, repeats):
     print(
         f"  adaptive / raw Embree on every texel's rays: median {ratio('adaptive', 'raw full'):.2f} "
         f"({listing('adaptive', 'raw full')}); rays {report.rays_traced / report_full.rays_traced:.2f} of every texel's"
+    )
+    print(
+        f"  process CPU time, bake / raw Embree (same rays): every texel {cpu_ratio('full', 'raw full'):.2f}, "
+        f"adaptive {cpu_ratio('adaptive', 'raw adaptive'):.2f}"
     )
 
 

@@ -227,10 +227,12 @@ class BakeJob:
                     more = comp.step()
                     if more and following is not None and comp.fully_queued:
                         following.start()  # (its slices queue behind the last ones: no thread waits)
-                    yield self.fraction, f"{label}: {100.0 * self.fraction:.0f} %"
+                    yield (done := self.fraction), f"{label}: {100.0 * done:.0f} %"  # (one sum a step)
                     if not more:
                         break
                 comp.close()
+                if index < len(self.plans):
+                    self._texel_image_early(self.plans[index])
             if self.bounce is not None:
                 started = time.perf_counter()
                 self.bounce.start_passes(self.plans)
@@ -245,6 +247,12 @@ class BakeJob:
                 self.report.bounce_seconds = time.perf_counter() - started
         finally:
             self.close()
+
+    def _texel_image_early(self, plan):
+        """A texel bake's image as its tracing ends, while the next slices trace (not with bounces)."""
+        if plan.texels is not None and self.bounce is None:
+            local = frames.to_local_frame(plan.computation.coeffs, plan.matrix[:3, :3])
+            plan.image = texel_image(plan.texels.samples, local, plan.texels.seams)
 
     def finish(self):
         """Write every baked mesh (all or nothing) and return the report."""
@@ -271,11 +279,14 @@ class BakeJob:
             backend = self.backend if traced and stats.rays_traced else "NONE"
             if backend != "NONE":
                 backends.add(backend)
-            local = frames.to_local_frame(comp.coeffs, plan.matrix[:3, :3])
-            if plan.texels is not None:
-                values = texel_image(plan.texels.samples, local, plan.texels.seams)
+            if plan.image is not None:
+                values = plan.image
             else:
-                values = local if plan.points.scatter is None else local[plan.points.scatter]
+                local = frames.to_local_frame(comp.coeffs, plan.matrix[:3, :3])
+                if plan.texels is not None:
+                    values = texel_image(plan.texels.samples, local, plan.texels.seams)
+                else:
+                    values = local if plan.points.scatter is None else local[plan.points.scatter]
             bounced = None
             if self.bounce is not None:
                 world = self.bounce.bounced[id(plan)]

@@ -34,6 +34,7 @@ class _Plan:
     source: object = None  # (evaluated mesh, its local positions) until the points are read
     texels: object = None  # texels.TexelGeometry of a texel bake
     back: object = None  # the back side's computation of an open mesh (vertex bakes)
+    image: object = None  # a texel bake's transfer image (object frame), made as its tracing ends
 
     def computations(self):
         """The plan's computations: its transfer's, then its back side's if it has one."""

@@ -117,34 +117,38 @@ def _nearest_seed(seeds: np.ndarray) -> np.ndarray:
     nearest_row = np.where(take_above, above, below)  # 2 * height: no seed in the column
     big = 4.0 * (height + width) ** 2  # stands for +inf and never wins against a real seed
     f = np.where(nearest_row < height, (nearest_row - rows).astype(np.float64) ** 2, big)
-    r = np.arange(height)
-    v = np.zeros((height, width), dtype=np.int64)  # the envelope's parabolas (columns), per row
-    z = np.full((height, width + 1), np.inf)  # and the boundaries between them
-    z[:, 0] = -np.inf
+    # Flat tables indexed by row start + column: a take on a flat array costs a fraction of 2-D
+    # fancy indexing, which each column step paid several times.
+    fv = (f + (np.arange(width) ** 2)[None, :]).ravel()  # f(c) + c^2, the parabola of column c
+    base, zw = np.arange(height) * width, width + 1
+    zbase = np.arange(height) * zw
+    v = np.zeros(height * width, dtype=np.int64)  # the envelope's parabolas (columns), per row
+    z = np.full(height * zw, np.inf)  # and the boundaries between them
+    z[zbase] = -np.inf
     k = np.zeros(height, dtype=np.int64)
     for q in range(1, width):
-        fq = f[:, q] + q * q
+        fq = fv[base + q]
         while True:
-            vk = v[r, k]
-            s = (fq - (f[r, vk] + vk * vk)) / (2.0 * (q - vk))
-            pop = s <= z[r, k]
+            vk = v[base + k]
+            s = (fq - fv[base + vk]) / (2.0 * (q - vk))
+            pop = s <= z[zbase + k]
             if not pop.any():
                 break
             k -= pop
         k += 1
-        v[r, k] = q
-        z[r, k] = s
-        z[r, k + 1] = np.inf
-    best = np.empty((height, width), dtype=np.int64)
-    k[:] = 0
-    for q in range(width):
-        while True:
-            step = z[r, k + 1] < q
-            if not step.any():
-                break
-            k += step
-        best[:, q] = v[r, k]
-    return nearest_row[r[:, None], best] * width + best
+        v[base + k] = q
+        z[zbase + k] = s
+        z[zbase + k + 1] = np.inf
+    # Parabola j of a row serves the columns q with z[j] <= q < z[j + 1] (z[1 .. k + 1]
+    # increasing), so its index is the count of boundaries below q: one searchsorted over the
+    # rows laid end to end, each clipped to [-1, width] and lifted by row * (width + 2). A
+    # boundary is a fraction with denominator at most 2 width, never within rounding of q.
+    bounds = np.clip(z.reshape(height, zw)[:, 1:], -1.0, float(width))
+    bounds[np.arange(width)[None, :] > k[:, None]] = width  # (beyond each row's envelope)
+    lift = (np.arange(height) * (width + 2))[:, None]
+    where = np.searchsorted((bounds + lift).ravel(), (np.arange(width)[None, :] + lift).ravel())
+    best = v[where.reshape(height, width)]  # (each row's search starts at row * width: v's row)
+    return nearest_row[np.arange(height)[:, None], best] * width + best
 
 
 @dataclass

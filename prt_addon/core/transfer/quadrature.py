@@ -236,10 +236,15 @@ class TransferComputation:
         flat = np.flatnonzero(above)
         # Rays are point-major: each origin is repeated once per direction it traces (a take()
         # by flat // cols into a reused buffer: np.repeat's fresh array cost twice as much); the
-        # direction is flat - cols (flat // cols), 4 times cheaper than an integer remainder.
-        index = ws["index"][: len(flat)]
-        origins = np.take(self.origins16[lo:hi], np.floor_divide(flat, cols, out=index), out=ws["origins"][: len(flat)])
-        np.subtract(flat, np.multiply(index, cols, out=index), out=index)
+        # direction is flat - cols (flat // cols), 4 times cheaper than an integer remainder; for
+        # a power-of-two cols (256 directions, 64 per texel sample) a shift and a mask, cheaper still.
+        index, out = ws["index"][: len(flat)], ws["origins"][: len(flat)]
+        if cols & (cols - 1) == 0:
+            origins = np.take(self.origins16[lo:hi], np.right_shift(flat, cols.bit_length() - 1, out=index), out=out)
+            np.bitwise_and(flat, cols - 1, out=index)
+        else:
+            origins = np.take(self.origins16[lo:hi], np.floor_divide(flat, cols, out=index), out=out)
+            np.subtract(flat, np.multiply(index, cols, out=index), out=index)
         dirs = np.take(self.dirs16[k0:k1], index, out=ws["dirs"][: len(flat)])
         return weight, n_above, flat, origins, dirs
 
@@ -294,7 +299,8 @@ class TransferComputation:
                 n_hit = int(np.count_nonzero(hit))
                 stats.occluded_rays += n_hit
                 if n_hit:
-                    hit_flat = np.compress(hit, flat, out=self._workspace()["index"][:n_hit])
+                    # (a take by the hits' positions: 3 times faster than np.compress, same values)
+                    hit_flat = np.take(flat, np.flatnonzero(hit), out=self._workspace()["index"][:n_hit])
                     if keep_hits:
                         which, cols = np.flatnonzero(hit), k1 - k0
                         cosines = weight.reshape(-1)[hit_flat] * self.hit_weight
