@@ -10,7 +10,9 @@ the widest penumbra the view's disc can throw, then percentage-closer filtering 
 radius (d_receiver - d_blocker) * tan(angle), both over Vogel-disc taps. Each tap is compared with
 the receiver's own plane at that texel's centre (receiver-plane depth bias: the plane's depth
 slope in the map follows from the normal), less a bias of one texel plus that slope, so the bias
-does not grow with the filter's radius.
+does not grow with the filter's radius. A PCF tap stands for one direction of the view's disc and
+counts with its cosine to the receiver, none below the receiver's horizon (where a map seeing the
+receiver edge-on holds nothing); a view whose own direction is below that horizon gives 0.
 """
 
 import gpu
