@@ -16,19 +16,19 @@ def _file_lights(path):
 
 
 def test_the_export_writes_each_lights_shadow_views(demo_scene, tmp_path):
-    """Each light's `views` are core.lights.shadow_views' of the scene's lights at the full budget, in the
+    """Each light's `views` are core.lights.shadow_views' of the scene's lights at the web viewer's full budget, in the
     glTF frame: every sample of a light in exactly one of its views, a view's direction the
     normalised weighted mean of its samples (a wide light's) or the light's direction (a compact
     one's), its angle sqrt(m / k) of the light's shadow angle; a light without samples has one
     view with `samples` null."""
-    from prt_addon.blender.export.gltf import BLENDER_TO_GLTF
+    from prt_addon.blender.export.gltf import BLENDER_TO_GLTF, WEB_WIDE_VIEWS
     from prt_addon.core.lights.samples import shadow_angle
     from prt_addon.core.lights.shadow_views import shadow_views
 
     path, world = _export(demo_scene, tmp_path / "views.glb", _lights())
     lights = _file_lights(path)
     assert len(lights) == 3
-    expected = shadow_views(world)
+    expected = shadow_views(world, max_wide_views=WEB_WIDE_VIEWS)
     written = [(index, view) for index, light in enumerate(lights) for view in light["views"]]
     assert len(written) == len(expected) == 16 + 1 + 1
     for (index, view), want in zip(written, expected, strict=True):

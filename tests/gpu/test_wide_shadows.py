@@ -20,7 +20,8 @@ def test_wide_light_shadow_matches_traced_visibility_over_the_cap(bpy_module, gr
     6 % RMS of the cap's own shading sum_k max(0, n . w_k) V(w_k) / K over 1000 of its directions,
     as close as api.shade (16 rays, one per sample) is to it, and within 3 % of api.shade in the
     median (relative to the unshadowed value). The single map along the mean direction filtered
-    over the shadow angle (the draw of compact lights) is measured too: it is 17 to 28 % off."""
+    over the shadow angle (the draw of compact lights) is measured too: it is 7 to 14 % off, more
+    than twice the views' 2 to 3 % (17 to 28 % when its filter reached 16 texels, not 64)."""
     import prt_addon.api as api
     from prt_addon.blender.display import shadows
     from prt_addon.core.lights import shadow_views
@@ -66,7 +67,7 @@ def test_wide_light_shadow_matches_traced_visibility_over_the_cap(bpy_module, gr
     )
     shadows.geometry_changed()
     single = render(scene)[rows, cols, :3]
-    assert rms(single) > 0.15
+    assert rms(single) > 2.0 * rms(viewport)
 
 
 def test_a_heavier_scene_draws_fewer_wide_maps(bpy_module, ground_scene, monkeypatch):

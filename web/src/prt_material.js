@@ -18,6 +18,7 @@ import {
   MIN_COSINE,
   PCF_TAPS,
   WIDE_BLOCKER_TAPS,
+  WIDE_MAX_RADIUS,
   WIDE_PCF_TAPS,
 } from './shadows.js';
 import { SPECULAR_FRAGMENT, mappedFragment, specularUniforms, specularVertex } from './specular.js';
@@ -175,9 +176,12 @@ vec2 vogel(int i, int n) {
   return r * vec2(cos(a), sin(a));
 }
 
-float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pcfTaps) {
+float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pcfTaps, float maxRadius) {
   vec4 p = vec4(worldPos, 1.0);
   vec3 q = vec3(dot(sunRows[3 * v], p), dot(sunRows[3 * v + 1], p), dot(sunRows[3 * v + 2], p));
+  // A view whose direction is below the receiver's horizon looks through it: no light.
+  float facing = dot(n, sunDir[v].xyz);
+  if (facing <= 0.0) return 0.0;
   float texel = sunParams[v].x;
   float tanA = sunParams[v].y;
   float res = sunParams[v].z;
@@ -193,7 +197,7 @@ float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pc
   }
   grad *= texel;
   float bias = texel * (1.0 + slope);
-  float search = clamp(q.z * tanA / texel, 1.0, ${MAX_RADIUS.toFixed(1)});
+  float search = clamp(q.z * tanA / texel, 1.0, maxRadius);
   float sum = 0.0;
   float found = 0.0;
   for (int i = 0; i < blockerTaps; i++) {
@@ -205,13 +209,20 @@ float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pc
     }
   }
   if (found == 0.0) return 1.0;
-  float radius = clamp((q.z - sum / found) * tanA / texel, 0.5, ${MAX_RADIUS.toFixed(1)});
+  float radius = clamp((q.z - sum / found) * tanA / texel, 0.5, maxRadius);
+  // Tap o is the disc's direction s + tanA (o / radius) . (t, b): weighted by its cosine, none
+  // below the receiver's horizon (display/shader_suns.py).
+  vec2 tilt = vec2(dot(n, sunRows[3 * v].xyz), dot(n, sunRows[3 * v + 1].xyz)) * (texel * tanA / radius);
   float lit = 0.0;
+  float weight = 0.0;
   for (int i = 0; i < pcfTaps; i++) {
-    vec2 xy = q.xy + radius * vogel(i, pcfTaps);
-    lit += step(q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias, sunDepth(maps, xy, layer, res));
+    vec2 o = radius * vogel(i, pcfTaps);
+    vec2 xy = q.xy + o;
+    float w = max(facing + dot(tilt, o), 0.0);
+    weight += w;
+    lit += w * step(q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias, sunDepth(maps, xy, layer, res));
   }
-  return lit / float(pcfTaps);
+  return weight > 0.0 ? lit / weight : 0.0;
 }
 `;
 
@@ -232,8 +243,8 @@ function sunLoop(layout, glossy) {
       lines.push(`  c += sunSamples[${j}].w * max(dot(n, sunSamples[${j}].xyz), 0.0);`);
     first += count;
     const visibility = wide
-      ? `viewVisibility(wideMaps, ${v}, n, ${WIDE_BLOCKER_TAPS}, ${WIDE_PCF_TAPS})`
-      : `viewVisibility(sharpMaps, ${v}, n, ${BLOCKER_TAPS}, ${PCF_TAPS})`;
+      ? `viewVisibility(wideMaps, ${v}, n, ${WIDE_BLOCKER_TAPS}, ${WIDE_PCF_TAPS}, ${WIDE_MAX_RADIUS.toFixed(1)})`
+      : `viewVisibility(sharpMaps, ${v}, n, ${BLOCKER_TAPS}, ${PCF_TAPS}, ${MAX_RADIUS.toFixed(1)})`;
     lines.push(
       `  if (c > 0.0) {`,
       `    vis = useShadows ? ${visibility} : 1.0;`,

@@ -10,14 +10,15 @@
 import * as THREE from 'three';
 
 export const MAX_SUNS = 8;
-export const MAX_WIDE_VIEWS = 32; // core.lights.shadow_views: the wide lights' maps together
+export const MAX_WIDE_VIEWS = 32; // the wide lights' maps together (the export's WEB_WIDE_VIEWS)
 export const RESOLUTION = 2048; // the compact lights' maps
 export const WIDE_RESOLUTION = 1024; // a wide light's maps
 export const BLOCKER_TAPS = 12;
 export const PCF_TAPS = 16;
 export const WIDE_BLOCKER_TAPS = 6; // a wide light's views (display/shader_suns.py)
 export const WIDE_PCF_TAPS = 8;
-export const MAX_RADIUS = 16.0;
+export const MAX_RADIUS = 64.0; // texels: a compact light's widest penumbra (display/shader_suns.py)
+export const WIDE_MAX_RADIUS = 24.0; // a wide light's view's
 export const MAX_SLOPE = 20.0;
 export const MAX_SAMPLES = 16; // a light's samples in the cosine term (display/shader_suns.py)
 export const MIN_COSINE = 0.05; // the slope bias's cosine when the view's direction is at or below the horizon

@@ -10,7 +10,9 @@ the widest penumbra the view's disc can throw, then percentage-closer filtering 
 radius (d_receiver - d_blocker) * tan(angle), both over Vogel-disc taps. Each tap is compared with
 the receiver's own plane at that texel's centre (receiver-plane depth bias: the plane's depth
 slope in the map follows from the normal), less a bias of one texel plus that slope, so the bias
-does not grow with the filter's radius.
+does not grow with the filter's radius. A PCF tap stands for one direction of the view's disc and
+counts with its cosine to the receiver, none below the receiver's horizon (where a map seeing the
+receiver edge-on holds nothing); a view whose own direction is below that horizon gives 0.
 """
 
 import gpu
@@ -27,7 +29,8 @@ BLOCKER_TAPS = 12
 PCF_TAPS = 16
 WIDE_BLOCKER_TAPS = 6  # a wide light's views: many maps average out, each one filters less
 WIDE_PCF_TAPS = 8
-MAX_RADIUS = 16.0  # texels: widest penumbra filtered
+MAX_RADIUS = 64.0  # texels: widest penumbra filtered (a compact light's map, at 2048)
+WIDE_MAX_RADIUS = 24.0  # texels: a wide light's view's (1024): wider reaches past joins and edges
 MAX_SLOPE = 20.0  # tan of the receiver's angle to the light, capped for the bias
 CONTACT_SHIFT = 2.0  # lookups move this many biases along the contact tangent (docs/display.md, "Joins")
 
@@ -76,13 +79,19 @@ float view_cosine(vec3 n, int v)
   return sum;
 }}
 
-float view_visibility(sampler2D maps, int v, vec3 n, int blocker_taps, int pcf_taps)
+float view_visibility(sampler2D maps, int v, vec3 n, int blocker_taps, int pcf_taps, float max_radius)
 {{
   vec4 p = vec4(local_pos, 1.0);
   vec3 q = vec3(dot(suns.to_light[3 * v], p), dot(suns.to_light[3 * v + 1], p),
                 dot(suns.to_light[3 * v + 2], p));
   vec3 dq = vec3(dot(suns.to_light[3 * v].xyz, local_tan), dot(suns.to_light[3 * v + 1].xyz, local_tan),
                  dot(suns.to_light[3 * v + 2].xyz, local_tan));
+  // A view whose direction is below the receiver's horizon (a group of a wide light's samples
+  // straddling it) has a map that looks through the receiver: its samples above get no light.
+  float facing = dot(n, suns.dir[v].xyz);
+  if (facing <= 0.0) {{
+    return 0.0;
+  }}
   float texel = suns.params[v].x;
   float tan_a = suns.params[v].y;
   float res = suns.params[v].z;
@@ -105,7 +114,7 @@ float view_visibility(sampler2D maps, int v, vec3 n, int blocker_taps, int pcf_t
   if (moved > 0.0) {{
     q += dq * ({CONTACT_SHIFT} * bias * length(local_tan) / moved);
   }}
-  float search = clamp(q.z * tan_a / texel, 1.0, {MAX_RADIUS});
+  float search = clamp(q.z * tan_a / texel, 1.0, max_radius);
   float sum = 0.0;
   float found = 0.0;
   for (int i = 0; i < blocker_taps; i++) {{
@@ -119,13 +128,21 @@ float view_visibility(sampler2D maps, int v, vec3 n, int blocker_taps, int pcf_t
   if (found == 0.0) {{
     return 1.0;
   }}
-  float radius = clamp((q.z - sum / found) * tan_a / texel, 0.5, {MAX_RADIUS});
+  float gap = q.z - sum / found;
+  float radius = clamp(gap * tan_a / texel, 0.5, max_radius);
+  // Tap o stands for the direction s + tan(angle) (o / radius) . (t, b) of the view's disc: it
+  // counts with that direction's cosine n . s', and not at all below the receiver's horizon.
+  vec2 tilt = vec2(dot(n, suns.axes[2 * v].xyz), dot(n, suns.axes[2 * v + 1].xyz)) * (tan_a / radius);
   float lit = 0.0;
+  float weight = 0.0;
   for (int i = 0; i < pcf_taps; i++) {{
-    vec2 xy = q.xy + radius * vogel(i, pcf_taps);
-    lit += step(q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias, sun_depth(maps, xy, origin, res));
+    vec2 o = radius * vogel(i, pcf_taps);
+    vec2 xy = q.xy + o;
+    float w = max(facing + dot(tilt, o), 0.0);
+    weight += w;
+    lit += w * step(q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias, sun_depth(maps, xy, origin, res));
   }}
-  return lit / float(pcf_taps);
+  return weight > 0.0 ? lit / weight : 0.0;
 }}
 """
 
@@ -137,14 +154,14 @@ def view_layout(shadow_set):
     return len(shadow_set.maps) - wide, wide
 
 
-def _view_lines(v, maps, cosine, blocker_taps, pcf_taps, specular=False):
+def _view_lines(v, maps, cosine, blocker_taps, pcf_taps, max_radius, specular=False):
     """GLSL adding view `v`'s light (a literal index, or a loop variable's name) to `sun`, and
     with `specular` its GGX (shader_specular.sun_specular) to `sun_spec`."""
     if specular:
         return (
             f"  c = {cosine}(n, {v});\n"
             "  if (c > 0.0) {\n"
-            f"    float vis = view_visibility({maps}, {v}, n, {blocker_taps}, {pcf_taps});\n"
+            f"    float vis = view_visibility({maps}, {v}, n, {blocker_taps}, {pcf_taps}, {max_radius:.1f});\n"
             f"    sun += suns.power[{v}].rgb * (c * vis);\n"
             "    if (spec.material.w > 0.0) {\n"
             f"      sun_spec += suns.power[{v}].rgb * (sun_specular({v}) * (vis * suns.params[{v}].w));\n"
@@ -154,7 +171,8 @@ def _view_lines(v, maps, cosine, blocker_taps, pcf_taps, specular=False):
     return (
         f"  c = {cosine}(n, {v});\n"
         "  if (c > 0.0) {\n"
-        f"    sun += suns.power[{v}].rgb * (c * view_visibility({maps}, {v}, n, {blocker_taps}, {pcf_taps}));\n"
+        f"    sun += suns.power[{v}].rgb * (c * view_visibility({maps}, {v}, n, {blocker_taps}, {pcf_taps}, "
+        f"{max_radius:.1f}));\n"
         "  }\n"
     )
 
@@ -186,11 +204,14 @@ def add_suns(info, layout, vertex_source, attr_index, specular=False):
     # Compact views written out one by one: on llvmpipe the same code in a loop of constant
     # bound (not unrolled, as its body is large) made the frame slower (docs/display.md).
     # Wide views stay in one loop: written out they were no faster and compile to far more code.
-    views = [_view_lines(v, "sharp_maps", "compact_cosine", BLOCKER_TAPS, PCF_TAPS, specular) for v in range(compact)]
+    views = [
+        _view_lines(v, "sharp_maps", "compact_cosine", BLOCKER_TAPS, PCF_TAPS, MAX_RADIUS, specular)
+        for v in range(compact)
+    ]
     if wide:
         views.append(
             f"  for (int v = {compact}; v < {compact + wide}; v++) {{\n"
-            + _view_lines("v", "wide_maps", "view_cosine", WIDE_BLOCKER_TAPS, WIDE_PCF_TAPS, specular)
+            + _view_lines("v", "wide_maps", "view_cosine", WIDE_BLOCKER_TAPS, WIDE_PCF_TAPS, WIDE_MAX_RADIUS, specular)
             + "  }\n"
         )
     fragment = _FUNCTIONS + (

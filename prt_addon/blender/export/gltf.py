@@ -25,6 +25,7 @@ from ..world.nodes import WorldError
 from . import glb, ibl, quantise, specular, texels
 
 ATTRIBUTE_PREFIX = "_PRT_T"
+WEB_WIDE_VIEWS = 32  # the web viewer's wide maps (MAX_WIDE_VIEWS of web/src/shadows.js)
 EXTRAS_KEY = "PRT_lighting"
 FORMAT_VERSION = 1  # scene extras, and mesh extras of a float32 transfer (quantise.VERSION: quantised,
 # texels.VERSION: per texel)
@@ -141,10 +142,11 @@ def _sample_indices(light, views):
 
 
 def _views_extras(lights):
-    """Per light the JSON of its shadow views (core.lights.shadow_views at the full budget of wide maps,
-    MAX_WIDE_VIEWS: the viewer runs on a GPU, the viewport may draw fewer on a heavy scene), glTF
-    frame. Only the first MAX_LIGHTS lights are drawn (the viewport's MAX_SUNS): later ones get []."""
-    views = shadow_views(lights[:MAX_LIGHTS])
+    """Per light the JSON of its shadow views (core.lights.shadow_views at the web viewer's full budget
+    of wide maps, WEB_WIDE_VIEWS: the viewer runs on a GPU, the viewport may draw fewer on a heavy
+    scene), glTF frame. Only the first MAX_LIGHTS lights are drawn (the viewport's MAX_SUNS): later
+    ones get []."""
+    views = shadow_views(lights[:MAX_LIGHTS], max_wide_views=WEB_WIDE_VIEWS)
     out = [[] for _ in lights]
     for index, light in enumerate(lights[:MAX_LIGHTS]):
         mine = [v for v in views if v.light == index]

@@ -27,7 +27,7 @@ import numpy as np
 from .samples import power_cells, shadow_angle
 
 WIDE_ANGLE = np.radians(5.0)  # shadow angles above this are drawn from several maps
-MAX_WIDE_VIEWS = 32  # maps of the wide lights together (the viewport's layered texture)
+MAX_WIDE_VIEWS = 48  # maps of the wide lights together (the viewport's layered texture): 3 wide lights x 16
 MAX_SAMPLES = 16  # samples per light the viewport shades (core.lights.samples.SAMPLES_PER_LIGHT)
 WIDE_TRIANGLES = 4_000_000  # caster triangles drawn into the wide lights' maps per redraw of them
 

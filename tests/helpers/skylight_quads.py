@@ -1,0 +1,168 @@
+"""A room of single-quad walls lit through a skylight, with a table and a box; its walls' split-light part in the view and traced."""
+
+import math
+
+import numpy as np
+
+from helpers.worlds import bundled_hdri_path, new_world, use_image
+
+SIZE = 512  # the camera image
+S, H = 2.0, 3.0  # half the floor's side, the walls' height
+SKYLIGHT = (-0.5, 0.5, 0.0, 1.0)  # x0, x1, y0, y1 of the hole in the ceiling
+WALLS = ("back", "right", "left", "floor", "ceiling")
+GRID = 60  # points per side of a wall's grid
+LUMA = np.array([0.2126, 0.7152, 0.0722])
+DENSE_SAMPLES = 1024  # a light's power cells in the reference (the viewport and api.shade use 16)
+
+
+def _faces_object(bpy, name, quads, inward):
+    """One mesh object of single quads, each turned to face `inward`."""
+    verts, faces = [], []
+    for quad in quads:
+        c = np.asarray(quad, dtype=np.float64)
+        if np.cross(c[1] - c[0], c[3] - c[0]) @ (np.asarray(inward) - c.mean(axis=0)) < 0.0:
+            c = c[::-1]
+        faces.append(tuple(range(len(verts), len(verts) + 4)))
+        verts += [tuple(p) for p in c]
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(verts, [], faces)
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def _cube(bpy, name, centre, size):
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=centre)
+    obj = bpy.context.object
+    obj.name = name
+    obj.scale = size
+    bpy.ops.object.transform_apply(location=False, rotation=False, scale=True)
+    return obj
+
+
+def build(bpy, scene, hdri="courtyard"):
+    """The room under a bundled HDRI, a white material on everything, a camera inside looking at
+    the back-right corner; -> the objects (walls first, in WALLS order)."""
+    use_image(new_world(bpy, scene), bpy.data.images.load(bundled_hdri_path(hdri)))
+    mid = (0.0, 0.0, H / 2)
+    x0, x1, y0, y1 = SKYLIGHT
+    quads = {
+        "back": [[(-S, S, 0), (S, S, 0), (S, S, H), (-S, S, H)]],
+        "right": [[(S, -S, 0), (S, S, 0), (S, S, H), (S, -S, H)]],
+        "left": [[(-S, -S, 0), (-S, S, 0), (-S, S, H), (-S, -S, H)]],
+        "floor": [[(-S, -S, 0), (S, -S, 0), (S, S, 0), (-S, S, 0)]],
+        "ceiling": [
+            [(-S, -S, H), (S, -S, H), (S, y0, H), (-S, y0, H)],
+            [(-S, y1, H), (S, y1, H), (S, S, H), (-S, S, H)],
+            [(-S, y0, H), (x0, y0, H), (x0, y1, H), (-S, y1, H)],
+            [(x1, y0, H), (S, y0, H), (S, y1, H), (x1, y1, H)],
+        ],
+        "front": [[(-S, -S, 0), (S, -S, 0), (S, -S, H), (-S, -S, H)]],
+    }
+    objects = [_faces_object(bpy, name, q, mid) for name, q in quads.items()]
+    objects.append(_cube(bpy, "box", (1.0, -0.6, 0.3), (0.6, 0.6, 0.6)))
+    objects.append(_cube(bpy, "table", (-0.6, 0.8, 0.75), (1.2, 0.8, 0.05)))
+    material = bpy.data.materials.new("white")
+    for obj in objects:
+        obj.data.materials.append(material)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    scene.collection.objects.link(camera)
+    camera.location = (-1.7, -1.7, 1.5)
+    camera.rotation_euler = (math.radians(88.0), 0.0, math.radians(-45.0))
+    camera.data.lens = 14.0
+    scene.camera = camera
+    scene.render.resolution_x = scene.render.resolution_y = SIZE
+    scene.prt_display.albedo_source = "WHITE"
+    bpy.context.view_layer.update()
+    return objects
+
+
+def dense_lights(scene, lights):
+    """The scene's split lights again, each with DENSE_SAMPLES power cells of its own texels (the
+    same regions, powers and directions as `lights`, which must be unrotated)."""
+    from prt_addon.blender.world import pixels
+    from prt_addon.core.lights.extraction import extract_lights
+
+    node = next(n for n in scene.world.node_tree.nodes if n.type == "TEX_ENVIRONMENT")
+    settings = scene.prt_world
+    threshold = None if settings.auto_threshold else settings.light_threshold
+    _, dense = extract_lights(
+        pixels.read_image_pixels(node.image), threshold, settings.max_lights, samples=DENSE_SAMPLES
+    )
+    assert len(dense) == len(lights)
+    for a, b in zip(dense, lights):
+        np.testing.assert_allclose(a.power, b.power, rtol=1e-6)
+        assert a.direction @ b.direction > 1.0 - 1e-9
+    return dense
+
+
+def _wall_grid(obj):
+    """(points (GRID^2, 3), unit normal, (i, j) grid indices) over the first quad of obj, 3 % in from its edges."""
+    mw = np.array(obj.matrix_world)
+    co = np.array([v.co for v in obj.data.vertices])[:4] @ mw[:3, :3].T + mw[:3, 3]
+    normal = np.cross(co[1] - co[0], co[3] - co[0])
+    normal /= np.linalg.norm(normal)
+    i, j = np.meshgrid(np.arange(GRID), np.arange(GRID), indexing="ij")
+    u = (0.03 + 0.94 * i.ravel() / (GRID - 1))[:, None]
+    v = (0.03 + 0.94 * j.ravel() / (GRID - 1))[:, None]
+    points = (1 - u) * (1 - v) * co[0] + u * (1 - v) * co[1] + u * v * co[2] + (1 - u) * v * co[3]
+    return points, normal, (i.ravel(), j.ravel())
+
+
+def _traced(points, normals, lights, occluder):
+    """(P, 3) the lights' E/pi at the points, their visibility traced one ray per sample."""
+    from prt_addon.core.lights import visibility
+
+    seen = visibility.light_visibility(points, normals, lights, occluder, offset=1e-3)
+    return visibility.light_irradiance(normals, lights, seen)
+
+
+def wall_samples(bpy, scene, lights_image, sky_image, lights, dense):
+    """{wall: dict} at the wall's grid points the camera sees: 'view' the luminance of the view's
+    split-light part (lights_image - sky_image), 'shade' api.shade's model of it (16 rays, one per
+    sample, traced at the points), 'dense' the same over DENSE_SAMPLES rays per light, 'total'
+    the view's luminance, 'grid' the points' (i, j)."""
+    from prt_addon.blender.display import offscreen, shadows
+    from prt_addon.core.trace.raytrace import EmbreeOccluder
+
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    casters = shadows.caster_objects(scene)
+    occluder = EmbreeOccluder(*shadows.caster_triangles(casters, depsgraph))
+    ranges, first = {}, 0
+    for obj in casters:
+        count = len(shadows.caster_triangles([obj], depsgraph)[1])
+        ranges[obj.name] = (first, first + count)
+        first += count
+    view, proj = offscreen.camera_matrices(scene, SIZE, SIZE)
+    eye = np.array(scene.camera.matrix_world.translation)
+    out = {}
+    for name in WALLS:
+        points, normal, grid = _wall_grid(bpy.data.objects[name])
+        clip = np.c_[points, np.ones(len(points))] @ (proj @ view).T
+        ndc = clip[:, :2] / clip[:, 3:4]
+        rows = np.floor((1.0 - ndc[:, 1]) * 0.5 * SIZE).astype(int)
+        cols = np.floor((ndc[:, 0] + 1.0) * 0.5 * SIZE).astype(int)
+        seen = (clip[:, 3] > 0) & (rows >= 0) & (rows < SIZE) & (cols >= 0) & (cols < SIZE)
+        towards = points - eye
+        first_hit = occluder.nearest_triangles(
+            np.tile(eye, (len(points), 1)).astype(np.float32),
+            (towards / np.linalg.norm(towards, axis=1, keepdims=True)).astype(np.float32),
+        )
+        lo, hi = ranges[name]
+        seen &= (first_hit >= lo) & (first_hit < hi) & (towards @ normal < 0.0)
+        p, n = points[seen], np.tile(normal, (int(seen.sum()), 1))
+        r, c = rows[seen], cols[seen]
+
+        out[name] = {
+            "view": (lights_image[r, c, :3] - sky_image[r, c, :3]) @ LUMA,
+            "shade": _traced(p, n, lights, occluder) @ LUMA,
+            "dense": _traced(p, n, dense, occluder) @ LUMA,
+            "total": lights_image[r, c, :3] @ LUMA,
+            "grid": (grid[0][seen], grid[1][seen]),
+        }
+    return out
+
+
+def relative_rms(values, reference):
+    """RMS of values - reference over the RMS of the reference."""
+    return float(np.sqrt(np.mean((values - reference) ** 2)) / max(np.sqrt(np.mean(reference**2)), 1e-12))
