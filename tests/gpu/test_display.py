@@ -48,6 +48,23 @@ def test_shader_compiles_for_every_order(gpu_ready, order):
     assert display_shader.shader_mode(count) == ("ATTR" if order <= 6 else "TEXTURE")
 
 
+@pytest.mark.parametrize("domain", ["POINT", "TEXEL"])
+@pytest.mark.parametrize(
+    ("textured", "specular", "spec_maps"), [(False, False, False), (True, False, False), (True, True, True)]
+)
+def test_push_constants_fit_what_every_backend_guarantees(gpu_ready, capfd, domain, textured, specular, spec_maps):
+    """Every variant's push constants fit Blender's guaranteed 128 bytes: Blender prints a warning
+    while the create-info is built otherwise (a texel bake with an albedo image did, at 136)."""
+    from prt_addon.blender.display import shader as display_shader
+
+    capfd.readouterr()
+    for lights in (None, (1, 2)):
+        display_shader.clear_shaders()
+        display_shader.get_shader(4, lights, domain=domain, textured=textured, specular=specular, spec_maps=spec_maps)
+    out, err = capfd.readouterr()
+    assert "Push constants" not in out + err, out + err
+
+
 def test_shade_matches_world_frame_expectation(bpy_module, lit_scene):
     """shade() of a rotated, translated, uniformly scaled sphere equals the clamped-cosine
     convolution of the world light at each world normal, computed without the local frame."""

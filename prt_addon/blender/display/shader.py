@@ -187,8 +187,6 @@ def get_shader(
     info.uniform_buf(0, "PRTLight", "light")
     info.push_constant("MAT4", "mvp")
     info.push_constant("VEC4", "tint")
-    info.push_constant("FLOAT", "scale")
-    info.push_constant("FLOAT", "depth_bias")
     info.vertex_in(0, "VEC3", "prt_pos")
     info.vertex_in(1, "VEC4", "prt_albedo")
     if mode == "TEXEL":
@@ -237,6 +235,10 @@ def get_shader(
         info.vertex_out(albedo_iface)
         body += "\n  albedo_uv = prt_albedo_uv;"
         first += 1
+    # The floats after the ivec2s: Blender's push-constant layout counts 136 bytes (over the 128 every
+    # backend guarantees) for a texel bake with an albedo image when they come first, within it after.
+    info.push_constant("FLOAT", "scale")
+    info.push_constant("FLOAT", "depth_bias")
     if lights:
         vertex, fragment = add_suns(info, lights, _VERTEX_COMMON % body, first, specular)
     else:
