@@ -68,6 +68,10 @@ def test_undo_or_redo_during_the_bake_cancels_it(bpy_module, empty_scene, bake_o
         for handler in list(getattr(bpy.app.handlers, handlers)):
             handler(bpy.context.scene, None)
         assert op._bake._cancel and op not in runner._running
+        # The panel says so before the operator's next event (with its timer gone, that may be
+        # long in coming in a window nobody touches).
+        early = reports.last_report(empty_scene)
+        assert early["cancelled"] and early["message"] == runner.UNDO_CANCEL
     finally:
         runner._running.discard(op)
     assert op.modal(bpy.context, fake_event("MOUSEMOVE", "NOTHING")) == {"CANCELLED"}

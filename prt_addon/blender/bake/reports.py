@@ -13,9 +13,13 @@ def _scene_key(scene):
     return getattr(scene, "session_uid", None) or scene.as_pointer()
 
 
+def _remember_unsaved(key, report):
+    _unsaved_reports[key] = report.as_dict()
+
+
 def _store_report(scene, report):
     if not report.ok:
-        _unsaved_reports[_scene_key(scene)] = report.as_dict()
+        _remember_unsaved(_scene_key(scene), report)
         return
     _unsaved_reports.pop(_scene_key(scene), None)
     settings = getattr(scene, "prt_bake", None)

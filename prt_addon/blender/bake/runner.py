@@ -11,7 +11,7 @@ import time
 import bpy
 from bpy.app.handlers import persistent
 
-from .reports import _report_to_operator, _scene_key, _store_report
+from .reports import _remember_unsaved, _report_to_operator, _scene_key, _store_report
 from .settings import BakeReport
 
 TIME_SLICE = 0.1  # seconds of work per timer event of the modal bake
@@ -198,14 +198,17 @@ def unregister_extra():
 def stop_running(message=OUTSIDE_CANCEL):
     """Stop a running modal bake (undo or redo, another file loaded, the add-on disabled):
     cancel it, remove its timer, end the progress bar and status text, close the worker threads;
-    its next event reports `message`. Nothing is written."""
+    its next event reports `message` to the caller, and the panel shows it at once (the next event
+    may be long in coming: the timer is gone). Nothing is written."""
     for op in list(_running):
         _running.discard(op)
         op._stopped = message
-        for step in ("cancel", "timer", "steps", "close", "progress"):
+        for step in ("cancel", "report", "timer", "steps", "close", "progress"):
             try:
                 if step == "cancel":
                     op._bake.cancel()
+                elif step == "report" and getattr(op, "_scene_key", None) is not None:
+                    _remember_unsaved(op._scene_key, BakeReport(cancelled=True, message=message))
                 elif step == "timer" and op._timer is not None:
                     bpy.context.window_manager.event_timer_remove(op._timer)
                     op._timer = None
