@@ -294,7 +294,7 @@ class BakeJob:
             square_norm_sum += result.square_norm_sum()
             record = bake_record(s, plan, backend, stats, result)
             if plan.texels is not None:
-                texel_extra = (plan.texels.uv_name, plan.texels.created_uvs, bounced)
+                texel_extra = (plan.texels.uv_name, plan.texels.created_uvs, bounced, back_values(plan))
                 items.append((plan.mesh, values, "TEXEL", record, texel_extra))
             else:
                 items.append((plan.mesh, values, plan.points.domain, record, bounced, back_values(plan)))

@@ -107,7 +107,10 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
             bind_textures(shader, spec_frame)
         if entry.texel_grid is not None:
             shader.uniform_int("texel_grid", entry.texel_grid)
-            shader.uniform_sampler("transfer_tx", _relit(state, entry, info.count, info.channels))
+            relit = _relit(state, entry, info.count, info.channels)
+            shader.uniform_sampler("transfer_tx", relit.texture)
+            if relit.back is not None:
+                shader.uniform_sampler("back_tx", relit.back)
         elif entry.texture is not None:
             shader.uniform_int("per_row", entry.per_row)
             shader.uniform_sampler("transfer_tx", entry.texture)
@@ -143,15 +146,18 @@ def _slot_albedo(obj, sources, textured):
 
 
 def _relit(state, entry, count, channels):
-    """The object's relit radiance texture, drawn again when the light or the bake changed."""
+    """The object's relit radiance textures (texel_relight.Relit: the front's, and the back's of
+    an open mesh), drawn again when the light or the bake changed."""
     key = (state.light_key, id(entry))
-    if state.relit is None or state.relit.resolution != entry.texel_grid[0]:
-        state.relit = texel_relight.Relit(entry.texel_grid[0])
+    back = entry.back_texture is not None
+    if state.relit is None or state.relit.resolution != entry.texel_grid[0] or (state.relit.back is not None) != back:
+        state.relit = texel_relight.Relit(entry.texel_grid[0], back)
         state.relit_key = None
     if state.relit_key != key:
-        texel_relight.relight(state.relit, entry.texture, entry.texel_grid, count, state.ubo, channels)
+        back_tiles = entry.back_texture
+        texel_relight.relight(state.relit, entry.texture, entry.texel_grid, count, state.ubo, channels, back_tiles)
         state.relit_key = key
-    return state.relit.texture
+    return state.relit
 
 
 def _bind_suns(shader, state, suns, maps, matrix_world):

@@ -92,6 +92,27 @@ vec3 texel_transfer()
 """
 
 
+BACK_SLOT = 6  # a texel bake's relit back side (slots: albedo_texture.ALBEDO_SLOT)
+
+
+def _texel_back(info, vertex, fragment):
+    """(vertex, fragment) of a texel bake with a back side: faces seen from behind read its relit
+    texture, back_tx (texel_relight), with the suns' normal flipped there (as _back_side)."""
+    iface = gpu.types.GPUStageInterfaceInfo("prt_back_iface")
+    iface.flat("FLOAT", "prt_facing")
+    info.vertex_out(iface)
+    info.sampler(BACK_SLOT, "FLOAT_2D", "back_tx")
+    front = "vec3 prt_texel = texel_transfer();"
+    back = "vec3 prt_texel = prt_front() ? texel_transfer() : texel_back();"
+    assert "  radiance = max(r," in vertex and front in fragment
+    facing = "  prt_facing = determinant(mvp) < 0.0 ? 1.0 : -1.0;\n"
+    vertex = vertex.replace("  radiance = max(r,", facing + "  radiance = max(r,", 1)
+    fragment = fragment.replace(front, back, 1)
+    fragment = fragment.replace("local_nrm)));\n", "local_nrm)));\n  n = prt_front() ? n : -n;\n", 1)
+    reader = _TEXEL_FUNCTION.replace("texel_transfer", "texel_back").replace("transfer_tx", "back_tx")
+    return vertex, _BACK_FUNCTION + reader + fragment
+
+
 def _texel_fragment(fragment, count):
     """`fragment` with the radiance multiplied per pixel by the texel bake's transfer."""
     main = "void main()\n{\n"
@@ -162,10 +183,10 @@ def get_shader(count, lights=None, bounce_channels=0, domain="POINT", specular=F
     is a (compact views, wide views) pair (shader_suns.view_layout; None or (0, 0): no suns) and a bounced transfer
     of `bounce_channels` channels (0: none), with the Principled specular when `specular`
     (shader_specular), with an albedo image per pixel when `textured` (albedo_texture), with the back
-    side's transfer drawn on back faces when `back` (cached).
+    side's transfer drawn on back faces when `back` (a texel bake: its relit back texture; cached).
     Raises RuntimeError on failure."""
-    back = bool(back) and domain != "TEXEL"
-    total = transfer_vec4s(count, bounce_channels, back)
+    back = bool(back)
+    total = transfer_vec4s(count, bounce_channels, back and domain != "TEXEL")
     mode = shader_mode(total, domain, textured)
     lights = tuple(lights) if lights and any(lights) else None
     key = (mode, count, lights, bounce_channels, bool(specular), bool(textured), back)
@@ -240,10 +261,12 @@ def get_shader(count, lights=None, bounce_channels=0, domain="POINT", specular=F
         iface.smooth("VEC3", "radiance")
         info.vertex_out(iface)
         vertex, fragment = _VERTEX_COMMON % body, _FRAGMENT
-    if back:
+    if back and mode != "TEXEL":
         vertex, fragment = _back_side(info, vertex, fragment, count * (1 + bounce_channels), count, mode)
     if mode == "TEXEL":
         fragment = _texel_fragment(fragment, count)
+        if back:
+            vertex, fragment = _texel_back(info, vertex, fragment)
     if textured:
         fragment = _albedo_diffuse(fragment)
     if specular:

@@ -4,7 +4,8 @@ A frame then reads one bilinear radiance per pixel instead of every coefficient 
 texels (the per-pixel sum cost 6.8 times the vertex bake's frame on llvmpipe; docs/texels.md).
 The bilinear lookup of the clamped radiance is what `shade` gives per texel, looked up. With
 bounces the bounced tiles (scene.texel_storage) add against light.b, the sky plus the split
-lights' SH, before the clamp, as `shade` does.
+lights' SH, before the clamp, as `shade` does. An open mesh's back side is relit into a second
+texture from its own image (direct only).
 """
 
 import gpu
@@ -77,38 +78,41 @@ def _program(count, channels=0):
 
 
 class Relit:
-    """One object's relit radiance: an RGBA32F texture of res x res texels and its framebuffer."""
+    """One object's relit radiance: an RGBA32F texture of res x res texels, and one more for the
+    back side of an open mesh (else None)."""
 
-    __slots__ = ("texture", "resolution")
+    __slots__ = ("texture", "back", "resolution")
 
-    def __init__(self, resolution):
+    def __init__(self, resolution, back=False):
         self.resolution = resolution
         self.texture = gpu.types.GPUTexture((resolution, resolution), format="RGBA32F")
-
-    @property
-    def framebuffer(self):
-        """A new framebuffer at each use (as shadow_atlas.Atlas's: one binds only in the GPU
-        context of its first bind)."""
-        return gpu.types.GPUFrameBuffer(color_slots=(self.texture,))
+        self.back = gpu.types.GPUTexture((resolution, resolution), format="RGBA32F") if back else None
 
 
-def relight(relit, transfer, grid, count, light_ubo, channels=0):
+def relight(relit, transfer, grid, count, light_ubo, channels=0, back=None):
     """Draw max(sum_i L_i t_i, 0) of every texel of `transfer` (the bake's tiles; grid: (res,
     tiles per row)) with the light of `light_ubo` (shader.light_ubo_bytes) into relit.texture;
-    channels: the bounce channels of the tiles (0: direct only)."""
-    shader, quad = _program(count, channels)
+    channels: the bounce channels of the tiles (0: direct only); back: (the back side's tiles,
+    their tiles per row), drawn into relit.back with the same light (direct only)."""
+    parts = [(relit.texture, transfer, grid[1], channels)]
+    if back is not None:
+        parts.append((relit.back, back[0], back[1], 0))
     viewport = gpu.state.viewport_get()
     depth_test = gpu.state.depth_test_get()
     try:
-        with relit.framebuffer.bind():
-            gpu.state.viewport_set(0, 0, relit.resolution, relit.resolution)
-            gpu.state.depth_test_set("NONE")
-            shader.bind()
-            shader.uniform_block("light", light_ubo)
-            shader.uniform_int("res", grid[0])
-            shader.uniform_int("tiles", grid[1])
-            shader.uniform_sampler("transfer_tx", transfer)
-            quad.draw(shader)
+        for target, tiles, per_row, part_channels in parts:
+            shader, quad = _program(count, part_channels)
+            # A new framebuffer at each use (as shadow_atlas.Atlas's: one binds only in the GPU
+            # context of its first bind).
+            with gpu.types.GPUFrameBuffer(color_slots=(target,)).bind():
+                gpu.state.viewport_set(0, 0, relit.resolution, relit.resolution)
+                gpu.state.depth_test_set("NONE")
+                shader.bind()
+                shader.uniform_block("light", light_ubo)
+                shader.uniform_int("res", grid[0])
+                shader.uniform_int("tiles", per_row)
+                shader.uniform_sampler("transfer_tx", tiles)
+                quad.draw(shader)
     finally:
         gpu.state.depth_test_set(depth_test)
         gpu.state.viewport_set(*viewport)
