@@ -168,3 +168,17 @@ def test_cancelled_while_the_back_side_bakes_writes_nothing(bpy_module, empty_sc
         job.finish()
     assert any(t.startswith("Baking the back") for t in labels)
     assert "prt_bake" not in plane.data and not [i for i in bpy.data.images if i.name.startswith("PRT")]
+
+
+def test_the_estimate_counts_the_back_side_of_an_open_mesh(bpy_module, empty_scene, monkeypatch):
+    """An open quad's texel bake traces its texels twice and holds texel_memory's back part."""
+    from prt_addon.blender.bake import estimate
+    from prt_addon.blender.bake.settings import BakeSettings, texel_memory
+
+    plane, _cube = _plane_and_cube(bpy_module, empty_scene)
+    settings = BakeSettings(order=8, samples=256, target="TEXELS", resolution=64, shadows=False)
+    both = estimate.estimate([plane], settings)
+    monkeypatch.setattr(estimate, "mesh_is_open", lambda mesh: False)
+    front = estimate.estimate([plane], settings)
+    assert both.rays == 2 * front.rays == 2 * 64 * 64 * 256
+    assert both.bytes - front.bytes == texel_memory(64, 8, back=True) - texel_memory(64, 8) > 0

@@ -273,9 +273,10 @@ def bakes_texels(plan, settings):
     return len(plan.mesh.vertices) < area * settings.texel_density**2 / 16.0
 
 
-def within_memory(so_far, resolution, order):
-    """so_far plus one more lightmap's texel_memory; raises BakeError past memory_budget()."""
-    total = so_far + texel_memory(resolution, order)
+def within_memory(so_far, resolution, order, back=False):
+    """so_far plus one more lightmap's texel_memory (with its back side's); raises BakeError past
+    memory_budget()."""
+    total = so_far + texel_memory(resolution, order, back=back)
     if total > memory_budget():
         raise BakeError(
             f"the lightmaps would take about {total / 2**30:.1f} GiB, more than a bake may use here "
