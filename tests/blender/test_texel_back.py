@@ -182,3 +182,22 @@ def test_the_estimate_counts_the_back_side_of_an_open_mesh(bpy_module, empty_sce
     front = estimate.estimate([plane], settings)
     assert both.rays == 2 * front.rays == 2 * 64 * 64 * 256
     assert both.bytes - front.bytes == texel_memory(64, 8, back=True) - texel_memory(64, 8) > 0
+
+
+def test_the_back_of_a_rug_on_the_floor_is_baked_as_shadowed(bpy_module, empty_scene):
+    """Contacts as the front's, turned over: a quad lying on a larger floor quad has its back on
+    the floor, facing it. Rays offset to the back would start under the floor and see the sky
+    below it (1 under the uniform sky); found by the contact ray, those samples are shadowed."""
+    from prt_addon import api
+
+    bpy = bpy_module
+    new_world(bpy, empty_scene)
+    bpy.ops.mesh.primitive_plane_add(size=8.0)  # the floor
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    rug = bpy.context.active_object
+    api.project_world(empty_scene, 4)
+    report = _texels([rug], samples=512)
+    assert any("under another surface on their back" in note for note in report.texel_notes)
+    assert not any("under another surface and" in note for note in report.texel_notes)
+    np.testing.assert_allclose(api.shade(rug), 1.0, atol=3e-3)
+    assert np.abs(api.shade(rug, side="BACK")).max() < 1e-6
