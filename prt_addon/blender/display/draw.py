@@ -107,10 +107,7 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
             bind_textures(shader, spec_frame)
         if entry.texel_grid is not None:
             shader.uniform_int("texel_grid", entry.texel_grid)
-            relit = _relit(state, entry, info.count, info.channels)
-            shader.uniform_sampler("transfer_tx", relit.texture)
-            if relit.back is not None:
-                shader.uniform_sampler("back_tx", relit.back)
+            shader.uniform_sampler("transfer_tx", _relit(state, entry, info.count, info.channels))
         elif entry.texture is not None:
             shader.uniform_int("per_row", entry.per_row)
             shader.uniform_sampler("transfer_tx", entry.texture)
@@ -146,18 +143,18 @@ def _slot_albedo(obj, sources, textured):
 
 
 def _relit(state, entry, count, channels):
-    """The object's relit radiance textures (texel_relight.Relit: the front's, and the back's of
-    an open mesh), drawn again when the light or the bake changed."""
+    """The object's relit radiance texture (texel_relight.Relit: the front's, and beside it the
+    back's of an open mesh), drawn again when the light or the bake changed."""
     key = (state.light_key, id(entry))
     back = entry.back_texture is not None
-    if state.relit is None or state.relit.resolution != entry.texel_grid[0] or (state.relit.back is not None) != back:
+    if state.relit is None or state.relit.resolution != entry.texel_grid[0] or state.relit.back != back:
         state.relit = texel_relight.Relit(entry.texel_grid[0], back)
         state.relit_key = None
     if state.relit_key != key:
         back_tiles = entry.back_texture
         texel_relight.relight(state.relit, entry.texture, entry.texel_grid, count, state.ubo, channels, back_tiles)
         state.relit_key = key
-    return state.relit
+    return state.relit.texture
 
 
 def _bind_suns(shader, state, suns, maps, matrix_world):
