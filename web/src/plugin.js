@@ -25,13 +25,18 @@ function say(level, message) {
   console[level](`PRT Lighting: ${message}`);
 }
 
-/** What of the source material's base colour varies per pixel (prt_material.js): its map, and its
- * vertex colours when it uses them and the geometry has them (GLTFLoader's COLOR_0). */
+/** What of the source material varies per pixel (prt_material.js): its base colour map, its
+ * vertex colours when it uses them and the geometry has them (GLTFLoader's COLOR_0), and its
+ * roughness and metalness maps with their factors (used where the file says Blender reads them). */
 function baseColorSurface(object) {
   const material = object.material || {};
   return {
     map: material.map || null,
     vertexColors: Boolean(material.vertexColors && object.geometry.getAttribute('color')),
+    roughnessMap: material.roughnessMap || null,
+    metalnessMap: material.metalnessMap || null,
+    roughness: material.roughness ?? 1,
+    metalness: material.metalness ?? 1,
   };
 }
 

@@ -20,7 +20,7 @@ import {
   WIDE_BLOCKER_TAPS,
   WIDE_PCF_TAPS,
 } from './shadows.js';
-import { SPECULAR_FRAGMENT, specularUniforms, specularVertex } from './specular.js';
+import { SPECULAR_FRAGMENT, mappedFragment, specularUniforms, specularVertex } from './specular.js';
 
 // The sum unrolled (k constant, so a source's fetch(k) can name an attribute). A bounced bake
 // (Blender's bake.md, "Interreflection") has `channels` more blocks of `count` vec4s after the
@@ -58,15 +58,56 @@ ${transferSum(count, channels, source)}
 // The source material's base colour per pixel, as MeshStandardMaterial takes it: its map (on the
 // map's UV channel, through its texture transform; an sRGB map decoded by the GPU as three.js
 // uploads it) and its vertex colours, multiplying the diffuse and the split lights' light.
+// The glossy material's roughness and metalness maps (three.js's convention for glTF's
+// metallicRoughnessTexture: roughness in G, metalness in B), each on its own UV channel and transform.
+const SURFACE_MAPS = [
+  ['map', 'prtMap'],
+  ['roughMap', 'prtRough'],
+  ['metalMap', 'prtMetal'],
+];
+
 function surfaceVertex(surface, source) {
   const lines = [];
-  if (surface.map) {
-    const uv = surface.uvChannel ? `uv${surface.uvChannel}` : 'uv';
-    if (uv !== 'uv' && uv !== source.uvAttribute) lines.push(`attribute vec2 ${uv};`);
-    lines.push('uniform mat3 prtMapTransform;', 'varying vec2 prtMapUv;');
-    lines.push(`#define PRT_MAP_UV (prtMapTransform * vec3(${uv}, 1.0)).xy`);
+  const declared = new Set(['uv', source.uvAttribute]);
+  for (const [key, name] of SURFACE_MAPS) {
+    if (!surface[key]) continue;
+    const channel = surface[key].channel || 0;
+    const uv = channel ? `uv${channel}` : 'uv';
+    if (!declared.has(uv)) lines.push(`attribute vec2 ${uv};`);
+    declared.add(uv);
+    lines.push(`uniform mat3 ${name}Transform;`, `varying vec2 ${name}Uv;`);
+    lines.push(`#define ${name.toUpperCase()}_UV (${name}Transform * vec3(${uv}, 1.0)).xy`);
   }
   if (surface.vertexColors) lines.push('attribute vec3 color;', 'varying vec3 prtVertexColor;');
+  return lines.join('\n');
+}
+
+function surfaceUvs(surface) {
+  return SURFACE_MAPS.filter(([key]) => surface[key])
+    .map(([, name]) => `  ${name}Uv = ${name.toUpperCase()}_UV;`)
+    .join('\n');
+}
+
+// Per pixel the glossy material's roughness and metallic: its maps' G and B times the glTF
+// factors (three.js's roughness and metalness), or the file's constants.
+function surfaceSpecular(surface) {
+  const lines = [];
+  if (surface.roughMap)
+    lines.push('uniform sampler2D prtRoughMap;', 'uniform float prtRoughFactor;', 'varying vec2 prtRoughUv;');
+  if (surface.metalMap)
+    lines.push('uniform sampler2D prtMetalMap;', 'uniform float prtMetalFactor;', 'varying vec2 prtMetalUv;');
+  lines.push('void prtSurfaceInputs() {');
+  lines.push(
+    surface.roughMap
+      ? '  prtRoughness = clamp(prtRoughFactor * texture2D(prtRoughMap, prtRoughUv).g, 0.0, 1.0);'
+      : '  prtRoughness = prtSurface.x;',
+  );
+  lines.push(
+    surface.metalMap
+      ? '  prtMetallic = clamp(prtMetalFactor * texture2D(prtMetalMap, prtMetalUv).b, 0.0, 1.0);'
+      : '  prtMetallic = prtSurface.y;',
+  );
+  lines.push('}');
   return lines.join('\n');
 }
 
@@ -83,7 +124,7 @@ function surfaceFragment(surface) {
 
 const VERTEX = (count, views, channels, source, surface, glossy) => `
 ${source.glsl}
-${glossy ? specularVertex(source, glossy.order) : ''}
+${glossy ? specularVertex(source, glossy.order, surface.paired) : ''}
 ${source.stage === 'texel' ? `attribute vec2 ${source.uvAttribute};\nvarying vec2 prtUv;` : ''}
 ${surfaceVertex(surface, source)}
 ${source.radianceVertex ? 'uniform sampler2D prtRadianceTx;' : ''}
@@ -96,7 +137,7 @@ varying vec3 radiance;
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 void main() {
 ${vertexRadiance(count, channels, source)}
-${surface.map ? '  prtMapUv = PRT_MAP_UV;' : ''}
+${surfaceUvs(surface)}
 ${surface.vertexColors ? '  prtVertexColor = color;' : ''}
   vec4 wp = modelMatrix * vec4(position, 1.0);
 ${glossy ? '  prtSpecularVertex(wp.xyz);' : ''}
@@ -242,13 +283,13 @@ uniform float exposureScale;
 varying vec3 radiance;
 ${glossy && !texel ? 'uniform vec3 albedo;\nuniform float scale;' : ''}
 ${surfaceFragment(surface)}
-${glossy ? SPECULAR_FRAGMENT : ''}
+${glossy ? (surface.paired ? mappedFragment() + surfaceSpecular(surface) : SPECULAR_FRAGMENT) : ''}
 ${texel ? TEXEL_LOOKUP : ''}
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 ${views ? SUN_FUNCTIONS(views, samples) : ''}
 void main() {
   vec3 color = ${texel ? 'prtTexelRadiance() * albedo * scale' : 'radiance'};
-${glossy ? '  vec3 sunSpec = vec3(0.0);\n  vec3 base = albedo * prtBaseColor();\n  prtSpecularSetup(base);' : ''}
+${glossy ? `  vec3 sunSpec = vec3(0.0);\n  vec3 base = albedo * prtBaseColor();\n${surface.paired ? '  prtSurfaceInputs();\n' : ''}  prtSpecularSetup(base);` : ''}
 ${views ? sunLoop(layout, glossy) : ''}
 ${shade(glossy)}
   #include <tonemapping_fragment>
@@ -276,11 +317,14 @@ export function prtMaterial({
   surface = {},
   glossy = null,
 }) {
+  const mapped = glossy ? glossy.constants.maps || [] : [];
   const base = {
     map: surface.map || null,
-    uvChannel: surface.map ? surface.map.channel || 0 : 0,
+    roughMap: (mapped.includes('roughness') && surface.roughnessMap) || null,
+    metalMap: (mapped.includes('metallic') && surface.metalnessMap) || null,
     vertexColors: Boolean(surface.vertexColors),
   };
+  base.paired = Boolean(glossy && glossy.constants.bands2 && (base.roughMap || base.metalMap));
   if (source.stage !== 'vertex' && source.stage !== 'texel')
     throw new Error(`a '${source.stage}' transfer source is not supported`);
   const count = source.count;
@@ -297,6 +341,20 @@ export function prtMaterial({
     prtRadianceTx: { value: null }, // (a relit or texel source: relight.js's texture)
     prtResolution: { value: source.resolution || 0 },
     ...(base.map ? { prtMap: { value: base.map }, prtMapTransform: { value: base.map.matrix } } : {}),
+    ...(base.roughMap
+      ? {
+          prtRoughMap: { value: base.roughMap },
+          prtRoughTransform: { value: base.roughMap.matrix },
+          prtRoughFactor: { value: surface.roughness ?? 1 },
+        }
+      : {}),
+    ...(base.metalMap
+      ? {
+          prtMetalMap: { value: base.metalMap },
+          prtMetalTransform: { value: base.metalMap.matrix },
+          prtMetalFactor: { value: surface.metalness ?? 1 },
+        }
+      : {}),
     ...(glossy ? specularUniforms(shared, glossy.constants) : {}),
   };
   if (views) {

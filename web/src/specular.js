@@ -63,7 +63,10 @@ export async function loadSpecular(parser, block) {
   };
 }
 
-/** A material's constants (its PRT_lighting extras) or null: {roughness, metallic, f0, bands, open}. */
+/** A material's constants (its PRT_lighting extras) or null: {roughness, metallic, f0, bands, open,
+ * maps: the inputs Blender reads from an image ('roughness', 'metallic'), and with them range (the
+ * roughness image's smallest and largest value), bands2 and open2 (the lobe at the largest; bands
+ * and open are at the smallest)}. */
 export function readMaterial(extras) {
   if (!extras || !Array.isArray(extras.lobe_bands) || !Array.isArray(extras.lobe_open)) return null;
   const vec4s = (values) =>
@@ -71,19 +74,27 @@ export function readMaterial(extras) {
       { length: BAND_COUNT / 4 },
       (_v, k) => new THREE.Vector4(...[0, 1, 2, 3].map((j) => Number(values[4 * k + j] || 0))),
     );
+  const maps = Array.isArray(extras.maps) ? extras.maps.filter((m) => m === 'roughness' || m === 'metallic') : [];
+  const paired = maps.length && Array.isArray(extras.lobe_bands2) && Array.isArray(extras.lobe_open2);
+  const range = Array.isArray(extras.roughness_range) ? extras.roughness_range.map(Number) : [0, 0];
   return {
     roughness: Number(extras.roughness),
     metallic: Number(extras.metallic),
     f0: Number(extras.f0),
     bands: vec4s(extras.lobe_bands),
     open: vec4s(extras.lobe_open),
+    maps: paired ? maps : [],
+    range: new THREE.Vector2(range[0] || 0, range[1] || 0),
+    bands2: paired ? vec4s(extras.lobe_bands2) : null,
+    open2: paired ? vec4s(extras.lobe_open2) : null,
   };
 }
 
 /** Vertex GLSL: the first transfer vec4 (bands 0 and 1) and the full transfer's occlusion at the
  * vertex's reflection direction (the real SH basis by its recurrences, as shader_specular's
  * occlusion_lines); a source without decoded values at the vertex (packed, texel) is open. */
-export function specularVertex(source, order) {
+export function specularVertex(source, order, paired = false) {
+  if (paired) return pairedLobes(specularVertex(source, order));
   const decoded = source.kind === 'texture';
   const lines = [
     'uniform mat3 nrmMatrix;',
@@ -151,6 +162,42 @@ export function specularVertex(source, order) {
   }
   lines.push(`  float open_ = ${terms.join(' + ')};`, '  prtSpecOcc = open_ > 1e-8 ? seen / open_ : 1.0;', '}');
   return lines.join('\n');
+}
+
+// The occlusion also for the second lobe (prtBands2, prtOpen2) into prtSpecOcc2, as Blender's
+// display/material_maps.py: the two are mixed per pixel by the roughness between the image's range.
+function pairedLobes(glsl) {
+  const out = ['uniform vec4 prtBands2[8];', 'uniform vec4 prtOpen2[8];', 'varying float prtSpecOcc2;'];
+  for (const line of glsl.split('\n')) {
+    out.push(line);
+    if (line.startsWith('  seen += ') || line.startsWith('  float open_ = '))
+      out.push(
+        line
+          .replace('seen +=', 'seen2 +=')
+          .replace('open_ =', 'open2 =')
+          .replace(/prtBands\[/g, 'prtBands2[')
+          .replace(/prtOpen\[/g, 'prtOpen2['),
+      );
+    else if (line === '  float seen = 0.0;') out.push('  float seen2 = 0.0;');
+    else if (line.startsWith('  prtSpecOcc = '))
+      out.push(line.includes('seen') ? '  prtSpecOcc2 = open2 > 1e-8 ? seen2 / open2 : 1.0;' : '  prtSpecOcc2 = 1.0;');
+  }
+  return out.join('\n');
+}
+
+/** SPECULAR_FRAGMENT with the roughness and metallic per pixel (prtRoughness, prtMetallic, set
+ * before prtSpecularSetup) and the two lobes' occlusion mixed by the roughness. */
+export function mappedFragment() {
+  const occ = 'clamp(prtSpecOcc, 0.0, 1.0)';
+  return (
+    'float prtRoughness;\nfloat prtMetallic;\nuniform vec2 prtRoughRange;\nvarying float prtSpecOcc2;\n' +
+    SPECULAR_FRAGMENT.replace(
+      occ,
+      'clamp(mix(prtSpecOcc, prtSpecOcc2, clamp((prtRoughness - prtRoughRange.x) / max(prtRoughRange.y - prtRoughRange.x, 1e-6), 0.0, 1.0)), 0.0, 1.0)',
+    )
+      .replace(/prtSurface\.x/g, 'prtRoughness')
+      .replace(/prtSurface\.y/g, 'prtMetallic')
+  );
 }
 
 /** Fragment GLSL: the sky, the table, the lobe's albedo, the occlusion, the shading (spec_shade). */
@@ -308,5 +355,12 @@ export function specularUniforms(shared, surface) {
     prtFrame: { value: new THREE.Matrix3() },
     prtBands: { value: surface.bands },
     prtOpen: { value: surface.open },
+    ...(surface.bands2
+      ? {
+          prtBands2: { value: surface.bands2 },
+          prtOpen2: { value: surface.open2 },
+          prtRoughRange: { value: surface.range },
+        }
+      : {}),
   };
 }

@@ -15,15 +15,15 @@ from ..scene.albedo_source import colour_space_note, image_pixels, slot_sources
 
 ALBEDO_SLOT = 5  # sampler slot (0 transfer, 1 and 2 shadow maps, 3 and 4 the specular's, 9 the colour table)
 
-GLSL = """
-vec3 albedo_px;  // albedo_at(albedo_uv), set first in main()
-
+_FLOOR_MOD = """
 ivec2 albedo_floor_mod(ivec2 i, ivec2 n)
 {
   // (GLSL's % is undefined for negative i; the 0.5 keeps an inexact division off whole numbers)
   return i - n * ivec2(floor((vec2(i) + 0.5) / vec2(n)));
 }
+"""
 
+_SAMPLER = """
 vec3 albedo_texel(ivec2 i, ivec2 size)
 {
   if (albedo_mode.y == 2 && (any(lessThan(i, ivec2(0))) || any(greaterThanEqual(i, size)))) {
@@ -55,6 +55,20 @@ vec3 albedo_at(vec2 uv)
 }
 """
 
+
+def sampler_glsl(name):
+    """GLSL of {name}_at(uv): the sampler {name}_tx looked up as an Image Texture node samples,
+    its (interpolation, extension) in the ivec2 {name}_mode (after GLSL, which holds the helper)."""
+    return (
+        _SAMPLER.replace("albedo_texel", f"{name}_texel")
+        .replace("albedo_at", f"{name}_at")
+        .replace("albedo_mode", f"{name}_mode")
+        .replace("albedo_tx", f"{name}_tx")
+    )
+
+
+GLSL = "\nvec3 albedo_px;  // albedo_at(albedo_uv), set first in main()\n" + _FLOOR_MOD + _SAMPLER
+
 _textures = {}  # image pointer -> (key, GPUTexture or None, note)
 _white = []
 
@@ -65,7 +79,7 @@ def clear_textures():
     _white.clear()
 
 
-def _image_key(image):
+def image_key(image):
     return (
         image.name,
         tuple(image.size),
@@ -77,7 +91,7 @@ def _image_key(image):
     )
 
 
-def _upload(rgb):
+def upload(rgb):
     height, width = rgb.shape[:2]
     data = np.ones((height, width, 4), dtype=np.float32)
     data[..., :3] = rgb
@@ -88,7 +102,7 @@ def _upload(rgb):
 def white():
     """A 1x1 white texture: what untextured slots of a textured mesh sample."""
     if not _white:
-        _white.append(_upload(np.ones((1, 1, 3), dtype=np.float32)))
+        _white.append(upload(np.ones((1, 1, 3), dtype=np.float32)))
     return _white[0]
 
 
@@ -96,7 +110,7 @@ def image_texture(image):
     """(GPUTexture or None, note) of `image`'s scene-linear pixels; None when it has none or is
     larger than the GPU's textures."""
     ptr = image.as_pointer()
-    key = _image_key(image)
+    key = image_key(image)
     hit = _textures.get(ptr)
     if hit is not None and hit[0] == key:
         return hit[1], hit[2]
@@ -105,7 +119,7 @@ def image_texture(image):
         tex, note = None, f"image '{image.name}' is larger than {limit} pixels, the GPU's limit"
     else:
         rgb, note = image_pixels(image)
-        tex = None if rgb is None else _upload(rgb)
+        tex = None if rgb is None else upload(rgb)
     _textures[ptr] = (key, tex, note)
     return tex, note
 
@@ -124,7 +138,7 @@ def notes(obj):
         note = src.note
         if src.kind == "IMAGE":
             hit = _textures.get(src.image.as_pointer())
-            note = hit[2] if hit is not None and hit[0] == _image_key(src.image) else colour_space_note(src.image)
+            note = hit[2] if hit is not None and hit[0] == image_key(src.image) else colour_space_note(src.image)
         if note and note not in out:
             out.append(note)
     return out

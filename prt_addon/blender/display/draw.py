@@ -17,7 +17,7 @@ from ..scene.albedo_source import slot_sources
 from ..scene.lighting import bounce_light_extra, exposure_scale, light_in_local_frame, world_light, world_lights
 from ..scene.materials import display_settings
 from ..scene.principled import principled_specular
-from . import albedo_texture, colour, light_markers, sky_texture, texel_relight
+from . import albedo_texture, colour, light_markers, material_maps, sky_texture, texel_relight
 from .gpu_cache import ObjectState, _object_cache, _prune, clear_caches, get_mesh_entry
 from .shader import get_shader, light_ubo_bytes
 from .shader_specular import bind_slot, bind_textures, eye_point
@@ -76,12 +76,17 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
         if info is None:
             continue
         sources = slot_sources(obj) if albedo_mode == "MATERIAL" else None
-        entry = get_mesh_entry(obj.data, info, albedo_mode, albedo_attr, obj, depsgraph, sources)
-        if not entry.batches:
-            continue
         slot_specular = [principled_specular(slot.material) for slot in obj.material_slots] if sky else []
         specular = any(x is not None for x in slot_specular)
-        shader = get_shader(info.count, layout, info.channels, info.domain, specular, entry.textured, info.back)
+        spec_maps = material_maps.slot_maps(obj, sources) if specular and sources is not None else []
+        spec_maps = spec_maps if any(m.any for m in spec_maps) else []
+        map_uvs = material_maps.uv_maps(spec_maps)
+        entry = get_mesh_entry(obj.data, info, albedo_mode, albedo_attr, obj, depsgraph, sources, map_uvs)
+        if not entry.batches:
+            continue
+        shader = get_shader(
+            info.count, layout, info.channels, info.domain, specular, entry.textured, info.back, bool(spec_maps)
+        )
         state = _object_cache.setdefault(obj.as_pointer(), ObjectState())
         mw = np.array(obj.matrix_world, dtype=np.float64)
         size_key = (info.count, info.channels)
@@ -120,7 +125,10 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
                 shader.uniform_int("albedo_mode", sources[slot].sampling if sources else (0, 0))
             if specular:
                 slot = min(mat_index, len(slot_specular) - 1)
-                bind_slot(shader, state, slot, mw, spec_frame, slot_specular[slot])
+                params, extra = slot_specular[slot], b""
+                if spec_maps:
+                    params, extra = _slot_maps(shader, spec_maps[min(slot, len(spec_maps) - 1)], params)
+                bind_slot(shader, state, slot, mw, spec_frame, params, extra)
             batch.draw(shader)
         drawn += 1
     return drawn
@@ -140,6 +148,13 @@ def _slot_albedo(obj, sources, textured):
             tints[i] = tuple(obj.material_slots[i].material.diffuse_color)
             textures[i] = albedo_texture.white()
     return tints, textures
+
+
+def _slot_maps(shader, maps, params):
+    """Bind a slot's Principled maps (material_maps); -> (params, extra PRTSpec bytes)."""
+    data = material_maps.slot_data(maps, params if params is not None else (0.5, 0.0, 0.04))
+    material_maps.bind(shader, data[2])
+    return (data[0] if params is not None else None), data[1]
 
 
 def _relit(state, entry, count, channels):

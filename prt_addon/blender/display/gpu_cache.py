@@ -62,7 +62,7 @@ def forget_mesh(mesh):
         del _mesh_cache[key]
 
 
-def _cache_key(mesh, info, albedo_mode, albedo_attr, sources=None):
+def _cache_key(mesh, info, albedo_mode, albedo_attr, sources=None, map_uvs=()):
     record = info.record
     rec = record.to_dict() if hasattr(record, "to_dict") else dict(record)
     return (
@@ -73,17 +73,20 @@ def _cache_key(mesh, info, albedo_mode, albedo_attr, sources=None):
         albedo_mode,
         albedo_attr,
         tuple((s.kind, s.uv_map, s.attribute) for s in sources or ()),
+        tuple(map_uvs),
     )
 
 
-def textured(sources):
-    """Whether slot sources (albedo_source.slot_sources) need the per-corner albedo draw."""
-    return any(s.kind != "CONSTANT" for s in sources or ())
+def textured(sources, map_uvs=()):
+    """Whether slot sources (albedo_source.slot_sources), or the slots' Principled maps on the UV
+    maps `map_uvs` (material_maps.uv_maps), need the per-corner albedo draw."""
+    return any(s.kind != "CONSTANT" for s in sources or ()) or any(map_uvs)
 
 
-def corner_albedo(mesh, sources):
+def corner_albedo(mesh, sources, map_uvs=()):
     """((corners, 4) albedo factor, (corners, 2) UVs) per corner from each face's slot source:
-    the colour attribute of an ATTRIBUTE slot, the UV map of an IMAGE slot; ones and zeros elsewhere."""
+    the colour attribute of an ATTRIBUTE slot, the UV map of an IMAGE slot or of a slot's
+    Principled maps (map_uvs); ones and zeros elsewhere."""
     n = len(mesh.loops)
     albedo = np.ones((n, 4), dtype=np.float32)
     uvs = np.zeros((n, 2), dtype=np.float32)
@@ -92,10 +95,11 @@ def corner_albedo(mesh, sources):
     slot = np.repeat(np.clip(mesh_read.read_face_materials(mesh), 0, len(sources) - 1), sizes)
     for i, src in enumerate(sources):
         here = slot == i
+        uv_map = src.uv_map if src.kind == "IMAGE" else (map_uvs[i] if i < len(map_uvs) else "")
         if src.kind == "ATTRIBUTE" and here.any():
             albedo[here] = element_albedo(mesh, "CORNER", "ATTRIBUTE", src.attribute)[here]
-        elif src.kind == "IMAGE" and here.any():
-            uvs[here] = mesh_read.read_corner_uvs(mesh, src.uv_map)[here]
+        if uv_map and here.any():
+            uvs[here] = mesh_read.read_corner_uvs(mesh, uv_map)[here]
     return albedo, uvs
 
 
@@ -136,15 +140,25 @@ def element_normals(mesh, domain):
 
 
 def build_mesh_entry(
-    mesh, info, key, albedo_mode="MATERIAL", albedo_attr="", positions=None, evaluated=None, normals=None, sources=None
+    mesh,
+    info,
+    key,
+    albedo_mode="MATERIAL",
+    albedo_attr="",
+    positions=None,
+    evaluated=None,
+    normals=None,
+    sources=None,
+    map_uvs=(),
 ):
     """Upload a baked mesh: vertex buffer per element, index buffers per material, transfer.
     key: its _cache_key; positions: (vertices, 3) local positions to draw instead of the mesh's
     (deformed_mesh), with normals their (elements, 3) normals; evaluated: the evaluated positions
     the entry stands for (get_mesh_entry); sources: the slots' AlbedoSources in Material mode. A
     mesh with an image or attribute slot is drawn per corner (a vertex bake's elements copied to
-    its corners), with each corner's albedo and UV."""
-    per_corner = textured(sources) and info.domain == "POINT"
+    its corners), with each corner's albedo and UV; map_uvs: per slot the UV map of its Principled
+    maps ("" none; material_maps.uv_maps), which make it drawn per corner too."""
+    per_corner = textured(sources, map_uvs) and info.domain == "POINT"
     if per_corner and normals is None:
         normals = element_normals(mesh, "POINT")
     domain = "POINT" if info.domain == "POINT" and not per_corner else "CORNER"  # (texel bakes: UVs per corner)
@@ -173,8 +187,8 @@ def build_mesh_entry(
     else:
         tangents = inward_tangents(positions, normals, positions, tris)
     uvs = None
-    if textured(sources):
-        albedo, uvs = corner_albedo(mesh, sources)
+    if textured(sources, map_uvs):
+        albedo, uvs = corner_albedo(mesh, sources, map_uvs)
     else:
         albedo = element_albedo(mesh, domain, albedo_mode, albedo_attr)
 
@@ -252,15 +266,16 @@ def _transfer_texture(transfer, count):
     return tex, per_row
 
 
-def get_mesh_entry(mesh, info, albedo_mode, albedo_attr, obj=None, depsgraph=None, sources=None):
+def get_mesh_entry(mesh, info, albedo_mode, albedo_attr, obj=None, depsgraph=None, sources=None, map_uvs=()):
     """The cached batches of `mesh`, or of `obj` when its modifiers or shape keys deform it:
     those are drawn at their evaluated positions, read again at every draw; when they moved (an
     animated armature, a shape-key value being dragged) the whole entry is built again.
-    sources: the slots' AlbedoSources (Material mode), part of the cache key."""
+    sources: the slots' AlbedoSources (Material mode) and map_uvs (build_mesh_entry), part of the
+    cache key."""
     mesh_eval = None if obj is None else deformed_mesh(obj, depsgraph)
     positions = None if mesh_eval is None else mesh_read.read_positions(mesh_eval)
     ptr = (mesh.as_pointer(), 0 if positions is None else obj.as_pointer())
-    key = _cache_key(mesh, info, albedo_mode, albedo_attr, sources)
+    key = _cache_key(mesh, info, albedo_mode, albedo_attr, sources, map_uvs)
     entry = _mesh_cache.get(ptr)
     if entry is None or entry.key != key or (positions is not None and not np.array_equal(entry.evaluated, positions)):
         drawn, normals = positions, None
@@ -270,7 +285,7 @@ def get_mesh_entry(mesh, info, albedo_mode, albedo_attr, obj=None, depsgraph=Non
             drawn = None
         if drawn is not None:
             normals = element_normals(mesh_eval, info.domain)
-        entry = build_mesh_entry(mesh, info, key, albedo_mode, albedo_attr, drawn, positions, normals, sources)
+        entry = build_mesh_entry(mesh, info, key, albedo_mode, albedo_attr, drawn, positions, normals, sources, map_uvs)
         _mesh_cache[ptr] = entry
     return entry
 

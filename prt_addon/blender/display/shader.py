@@ -14,7 +14,7 @@ import gpu
 import numpy as np
 
 from .. import caches
-from . import albedo_texture, colour, shader_specular
+from . import albedo_texture, colour, material_maps, shader_specular
 from .shader_suns import UBO_SOURCE, add_suns
 
 # GL guarantees (and llvmpipe offers) 16 vertex attributes; position, albedo, and for the suns
@@ -176,18 +176,23 @@ def _back_side(info, vertex, fragment, first, count, mode):
     return vertex, _BACK_FUNCTION + fragment
 
 
-def get_shader(count, lights=None, bounce_channels=0, domain="POINT", specular=False, textured=False, back=False):
+def get_shader(
+    count, lights=None, bounce_channels=0, domain="POINT", specular=False, textured=False, back=False, spec_maps=False
+):
     """Compiled shader for `count` transfer vec4s per part, with the suns' shadow views when `lights`
     is a (compact views, wide views) pair (shader_suns.view_layout; None or (0, 0): no suns) and a bounced transfer
     of `bounce_channels` channels (0: none), with the Principled specular when `specular`
     (shader_specular), with an albedo image per pixel when `textured` (albedo_texture), with the back
-    side's transfer drawn on back faces when `back` (a texel bake: its relit texture's back half; cached).
+    side's transfer drawn on back faces when `back` (a texel bake: its relit texture's back half),
+    with the Principled inputs' images per pixel when `spec_maps` (material_maps; specular and
+    textured only) (cached).
     Raises RuntimeError on failure."""
     back = bool(back)
     total = transfer_vec4s(count, bounce_channels, back and domain != "TEXEL")
     mode = shader_mode(total, domain, textured)
     lights = tuple(lights) if lights and any(lights) else None
-    key = (mode, count, lights, bounce_channels, bool(specular), bool(textured), back)
+    spec_maps = bool(spec_maps and specular and textured)
+    key = (mode, count, lights, bounce_channels, bool(specular), bool(textured), back, spec_maps)
     shader = _shaders.get(key)
     if shader is not None:
         return shader
@@ -197,7 +202,7 @@ def get_shader(count, lights=None, bounce_channels=0, domain="POINT", specular=F
     if lights:
         typedefs += UBO_SOURCE  # (typedef_source keeps only its last call)
     if specular:
-        typedefs += shader_specular.UBO_SOURCE
+        typedefs += material_maps.ubo_source() if spec_maps else shader_specular.UBO_SOURCE
     info.typedef_source(typedefs)
     info.uniform_buf(0, "PRTLight", "light")
     info.push_constant("MAT4", "mvp")
@@ -276,6 +281,8 @@ def get_shader(count, lights=None, bounce_channels=0, domain="POINT", specular=F
             main, main + "  albedo_px = albedo_at(albedo_uv);\n", 1
         )
         fragment = albedo_texture.GLSL + fragment
+    if spec_maps:
+        vertex, fragment = material_maps.add_maps(info, vertex, fragment)
     colour.declare(info)
     info.fragment_out(0, "VEC4", "FragColor")
     info.vertex_source(vertex)

@@ -347,16 +347,19 @@ def bind_textures(shader, spec_frame):
     shader.uniform_sampler("brdf_tx", table)
 
 
-def bind_slot(shader, state, slot, matrix_world, spec_frame, params):
+def bind_slot(shader, state, slot, matrix_world, spec_frame, params, extra=b""):
     """Bind material slot `slot`'s PRTSpec block (one uniform buffer per object and slot, updated
-    when it changed); params: principled_specular's triple or None (diffuse only)."""
+    when it changed); params: principled_specular's triple or None (diffuse only); extra: bytes
+    of the members after the block's own (material_maps)."""
     eye, rows, sky, _table = spec_frame
     r, mirrored = frames.frame_rotation(np.asarray(matrix_world, dtype=np.float64)[:3, :3])
     material = (0.5, 0.0, 0.04, 0.0) if params is None else (*params, 1.0)
-    data = spec_ubo_bytes(matrix_world, -r if mirrored else r, eye, rows, sky, material)
+    data = spec_ubo_bytes(matrix_world, -r if mirrored else r, eye, rows, sky, material) + extra
     if state.spec_ubo is None:
         state.spec_ubo, state.spec_bytes = {}, {}
     ubo = state.spec_ubo.get(slot)
+    if ubo is not None and len(state.spec_bytes.get(slot, b"")) != len(data):
+        ubo = None  # (the slot gained or lost its maps: another size)
     if ubo is None:
         ubo = state.spec_ubo[slot] = gpu.types.GPUUniformBuf(data)
     elif state.spec_bytes.get(slot) != data:

@@ -16,6 +16,7 @@ from ...core.ibl import sky_prefilter
 from ...core.sh import analytic
 from ...core.specular import brdf, occlusion
 from ..scene.principled import principled_specular
+from ..scene.principled_maps import map_pixels, principled_maps
 from ..world import light_split, nodes as _nodes, projection as _world
 from ..world.pixels import NeedsRender, read_image_pixels, render_world
 
@@ -57,23 +58,51 @@ def sky_levels(scene):
     return levels, rows
 
 
-def material_extras(material):
-    """The PRT_lighting extras of a Principled material, or None for any other."""
-    params = principled_specular(material)
-    if params is None:
-        return None
-    roughness, metallic, f0 = params
+def _lobe(roughness):
+    """(bands, open part) of the GGX lobe at `roughness` for the specular occlusion."""
     bands = occlusion.lobe_bands(float(max(roughness * roughness, 1e-3)), BAND_COUNT)
     # The open transfer's lobe-weighted part per band, by the addition theorem: k_l z_l sqrt((2l + 1) / 4 pi).
     ls = np.arange(BAND_COUNT)
     open_ = bands * analytic.clamped_cosine_zonal(BAND_COUNT) * np.sqrt((2 * ls + 1) / (4 * np.pi))
-    return {
-        "roughness": roughness,
-        "metallic": metallic,
-        "f0": f0,
-        "lobe_bands": np.asarray(bands).tolist(),
-        "lobe_open": open_.tolist(),
-    }
+    return np.asarray(bands).tolist(), open_.tolist()
+
+
+def _mapped(material):
+    """(names of the inputs the viewport reads from an image, (smallest, largest) roughness of
+    its image or None)."""
+    found = principled_maps(material)
+    names, span = [], None
+    for name, item in zip(("roughness", "metallic", "specular_ior_level"), found.inputs):
+        if item is None or item.image.size[0] == 0 or item.image.size[1] == 0:
+            continue
+        names.append(name)
+        if name == "roughness":
+            values, _note = map_pixels(item.image, item.channel, item.factor)
+            span = (float(values.min()), float(values.max()))
+    return names, span
+
+
+def material_extras(material):
+    """The PRT_lighting extras of a Principled material, or None for any other. A material whose
+    Roughness or Metallic comes from an image (scene.principled_maps) also lists them in `maps`
+    (the plugin reads them from the file's metallicRoughnessTexture), and its roughness image's
+    range with the lobe at its largest value (`lobe_bands2`, `lobe_open2`; the first lobe is at
+    its smallest), as the viewport's occlusion mixes them."""
+    params = principled_specular(material)
+    if params is None:
+        return None
+    roughness, metallic, f0 = params
+    names, span = _mapped(material)
+    if span is not None:
+        roughness = span[0]
+    bands, open_ = _lobe(roughness)
+    extras = {"roughness": roughness, "metallic": metallic, "f0": f0, "lobe_bands": bands, "lobe_open": open_}
+    if names:
+        span = span or (roughness, roughness)
+        extras["maps"] = names
+        extras["roughness_range"] = list(span)
+        extras["lobe_bands2"], extras["lobe_open2"] = _lobe(span[1])
+    return extras
 
 
 def _append(document, chunks, chunk_bin, data):

@@ -8,7 +8,7 @@ def _value(node, name, default):
     sock = node.inputs.get(name)
     if sock is None or not hasattr(sock, "default_value"):
         return default
-    # A linked socket (a texture) is read as its constant: textures are not sampled yet.
+    # A linked socket is read as its constant here; the display reads images per pixel (principled_maps).
     return float(sock.default_value)
 
 

@@ -4,6 +4,7 @@ import bpy
 
 from ..display.albedo_texture import notes as albedo_notes
 from ..display.draw import draws_in
+from ..display.material_maps import notes as map_notes
 from ..scene import lighting, storage
 from ..world import light_split, nodes
 from .bake_panel import VIEW3D_PT_prt_bake, VIEW3D_PT_prt_bake_options, VIEW3D_PT_prt_bake_report
@@ -126,7 +127,8 @@ class VIEW3D_PT_prt_display(PRTSubPanel, bpy.types.Panel):
             else:
                 layout.label(text=f"{obj.name}: drawn at order {info.order}")
                 if settings.albedo_source == "MATERIAL":
-                    for note in albedo_notes(obj):
+                    said = albedo_notes(obj) + (map_notes(obj) if settings.specular else [])
+                    for note in said:
                         wrapped_label(layout, context, note, icon="INFO")
 
 

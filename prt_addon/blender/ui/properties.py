@@ -241,8 +241,8 @@ class PRT_PG_display(bpy.types.PropertyGroup):
     specular: bpy.props.BoolProperty(
         name="Specular",
         description="Draw Principled materials' reflections: the sky prefiltered at their roughness and "
-        "the split lights' highlights (Roughness, Metallic, IOR and Specular IOR Level as constants). Off by "
-        "default: the glTF export and the web viewer draw the diffuse only",
+        "the split lights' highlights (Roughness, Metallic and Specular IOR Level as constants or from image "
+        "textures, IOR as a constant); the glTF export carries them for the web viewer. Off by default",
         default=False,
     )
     show_light_directions: bpy.props.BoolProperty(
