@@ -83,13 +83,14 @@ def test_a_failed_write_leaves_the_back_attributes_as_they_were(bpy_module, empt
     assert plane.data["prt_bake"]["order"] == 2 and plane.data["prt_bake"]["back"] == 1
 
 
-def test_a_texel_bake_has_no_back_side_and_says_so(bpy_module, empty_scene):
+def test_a_texel_bake_replaces_the_back_attributes_with_its_back_image(bpy_module, empty_scene):
     from prt_addon import api
 
-    plane, _cube = _plane_and_cube(bpy_module, empty_scene)
+    plane, cube = _plane_and_cube(bpy_module, empty_scene)
     api.project_world(empty_scene, 4)
     api.bake([plane], order=2, samples=128)
-    api.bake([plane], order=2, samples=64, target="TEXELS", uv_map="UVMap", resolution=8)
-    assert _names(plane) == [] and "back" not in plane.data["prt_bake"]
+    api.bake([plane, cube], order=2, samples=64, target="TEXELS", uv_map="UVMap", resolution=8)
+    assert _names(plane) == [] and plane.data["prt_bake"]["back_image"] == "PRT Grid (back)"
+    assert api.shade(plane, side="BACK").shape == (8, 8, 3)
     with pytest.raises(ValueError, match="no back-side transfer"):
-        api.shade(plane, side="BACK")
+        api.shade(cube, side="BACK")

@@ -82,8 +82,12 @@ def test_a_texel_bake_with_bounces_exports_its_bounce_planes(bpy_module, empty_s
         document, _acc = _read_glb(path)
         binary = glb.read(path)[1][0][1]
         metas = {m["name"]: m["extras"]["PRT_lighting"] for m in document["meshes"]}
+        # Open quads: each has a back image, which the export leaves out (docs/export.md): the
+        # file's images are the direct and bounce planes alone.
+        assert len(document["images"]) == len(objs) * (1 + 3) * bits // 8
         for obj in objs:
             bake, _ = storage.read_bake_record(obj.data)
+            assert bake.back and bake.back_image is not None
             meta = metas[obj.data.name]
             assert meta["version"] == 3 and meta["bounce_channels"] == 3 and meta["bounces"] == 1
             texel = meta["texel"]

@@ -161,8 +161,8 @@ def estimate(objects, settings, scene=None, threads=None):
     texel = settings.target == "TEXELS"
     counts = [_texel_elements(o, settings) if texel else mesh_elements(o.data) for o in meshes]
     elements = int(sum(counts))
-    # Open meshes' vertex bakes trace their back side too: the same points again.
-    back = 0 if texel else sum(c for o, c in zip(meshes, counts) if mesh_is_open(o.data))
+    # Open meshes trace their back side too: the same points (texel samples) again.
+    back = sum(c for o, c in zip(meshes, counts) if mesh_is_open(o.data))
     order2 = settings.order**2
     triangles = 0
     bounce_elements = 0
@@ -175,18 +175,23 @@ def estimate(objects, settings, scene=None, threads=None):
                     bounce_elements += mesh_elements(obj.data)
     # A texel's S samples share the direction set (each traces N / S of it): N rays per texel.
     texels = elements // SAMPLES_PER_TEXEL if texel else 0
-    rays = texels * settings.samples if texel else (elements + back) * settings.samples
+    rays = (texels + back // SAMPLES_PER_TEXEL) * settings.samples if texel else (elements + back) * settings.samples
     all_rays = rays + bounce_elements * settings.samples
     traced = all_rays
-    if texel:  # (covered texels only; adaptive sampling is off with bounces)
+    if texel:  # (covered texels only; adaptive sampling is off with bounces, but for the back sides)
         share = COVERED_SHARE * (ADAPTIVE_SHARE if settings.adaptive and not settings.bounces else 1.0)
-        traced = share * rays + bounce_elements * settings.samples
+        back_share = COVERED_SHARE * (ADAPTIVE_SHARE if settings.adaptive else 1.0)
+        back_rays = back // SAMPLES_PER_TEXEL * settings.samples
+        traced = share * (rays - back_rays) + back_share * back_rays + bounce_elements * settings.samples
     per_ray = SECONDS_PER_RAY + SECONDS_PER_RAY_COEFF * order2
     seconds = SECONDS_FIXED + (traced * per_ray + texels * SECONDS_PER_TEXEL) / threads
     nbytes = (elements + back) * (BYTES_PER_ELEMENT + BYTES_PER_COEFF * order2)
     if texel:
         nbytes = sum(
-            texel_memory(settings.resolution or int(np.sqrt(c / SAMPLES_PER_TEXEL)), settings.order) for c in counts
+            texel_memory(
+                settings.resolution or int(np.sqrt(c / SAMPLES_PER_TEXEL)), settings.order, back=mesh_is_open(o.data)
+            )
+            for o, c in zip(meshes, counts)
         )
     nbytes += triangles * BYTES_PER_TRIANGLE + WORK_BYTES
     if settings.bounces:

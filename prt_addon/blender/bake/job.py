@@ -149,7 +149,8 @@ class BakeJob:
         shadowed_by_scene = plan.occluder is not None and plan.occluder is self._occluder
         others = [(o, v, t) for o, v, t in self._parts if o is None or o != plan.obj] if shadowed_by_scene else []
         plan.texels = prepare_texels(plan, mesh_eval, positions, s, others, BUILDERS[self.backend], self._unwrapped)
-        self._texel_bytes = within_memory(self._texel_bytes, plan.texels.resolution, s.order)
+        back = plan.texels.back_normals is not None
+        self._texel_bytes = within_memory(self._texel_bytes, plan.texels.resolution, s.order, back)
         self.report.texel_notes += [f"'{plan.name}': {note}" for note in plan.texels.notes]
 
     def _computation(self, plan):
@@ -305,7 +306,7 @@ class BakeJob:
             square_norm_sum += result.square_norm_sum()
             record = bake_record(s, plan, backend, stats, result)
             if plan.texels is not None:
-                texel_extra = (plan.texels.uv_name, plan.texels.created_uvs, bounced)
+                texel_extra = (plan.texels.uv_name, plan.texels.created_uvs, bounced, back_values(plan))
                 items.append((plan.mesh, values, "TEXEL", record, texel_extra))
             else:
                 items.append((plan.mesh, values, plan.points.domain, record, bounced, back_values(plan)))

@@ -11,6 +11,7 @@ from ...core.transfer import back as back_side
 from ...core.transfer.mesh import matrix_to_numpy, transform_points
 from ..scene import mesh_read, storage
 from ..scene.parts import ray_setup
+from .texels import texel_computation, texel_image
 
 # Objects that hold no geometry to bake (selected with the meshes, they are left out quietly).
 NO_GEOMETRY = {"CAMERA", "LIGHT", "EMPTY", "LIGHT_PROBE", "SPEAKER", "ARMATURE", "LATTICE"}
@@ -33,7 +34,7 @@ class _Plan:
     boxes: object = None  # (K, 2, 3) boxes of the other occluders, or None (no culling)
     source: object = None  # (evaluated mesh, its local positions) until the points are read
     texels: object = None  # texels.TexelGeometry of a texel bake
-    back: object = None  # the back side's computation of an open mesh (vertex bakes)
+    back: object = None  # the back side's computation of an open mesh
     image: object = None  # a texel bake's transfer image (object frame), made as its tracing ends
 
     def computations(self):
@@ -42,10 +43,16 @@ class _Plan:
 
 
 def back_computation(job, plan):
-    """The computation of the back side of an open mesh's vertex or corner bake, or None: the
-    same points and directions for the flipped normals, the origins offset to the back and moved
-    into the faces turned over where surfaces touch (docs/bake.md, "Back faces")."""
-    if plan.texels is not None or not back_side.is_open(plan.own_triangles):
+    """The computation of the back side of an open mesh, or None: the same points (texel
+    samples) and directions for the flipped normals, the origins offset to the back and moved
+    into the faces turned over where surfaces touch (a texel bake: its back normals, zero where
+    the back lies under another surface); no hits, so direct light only (docs/bake.md, "Back faces")."""
+    if plan.texels is not None:
+        normals = plan.texels.back_normals
+        if normals is None:
+            return None
+        return texel_computation(plan, job.directions, job.settings, job._pool, normals=normals)
+    if not back_side.is_open(plan.own_triangles):
         return None
     surface = None
     if plan.occluder is not None:
@@ -55,10 +62,13 @@ def back_computation(job, plan):
 
 
 def back_values(plan):
-    """The back transfer per element in the object's local frame, or None (no back side)."""
+    """The back transfer in the object's local frame per element (a texel bake: its image, as
+    the front's), or None (no back side)."""
     if plan.back is None:
         return None
     local = frames.to_local_frame(plan.back.coeffs, plan.matrix[:3, :3])
+    if plan.texels is not None:
+        return texel_image(plan.texels.samples, local, plan.texels.seams)
     return local if plan.points.scatter is None else local[plan.points.scatter]
 
 

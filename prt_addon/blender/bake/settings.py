@@ -262,14 +262,22 @@ def blender_threads(scene):
 SAMPLES_PER_TEXEL = 4  # core.transfer.texels.SAMPLE_OFFSETS
 
 
-def texel_memory(resolution, order, samples_per_texel=SAMPLES_PER_TEXEL):
+BACK_SAMPLE, BACK_COEFF = 24, 18  # texel_memory's back side (fitted: docs/texels.md, "Back side")
+
+
+def texel_memory(resolution, order, samples_per_texel=SAMPLES_PER_TEXEL, back=False):
     """Bytes a texel bake of one object at resolution x resolution texels takes at its peak (every
     texel covered): per sample, its position, normal, barycentrics and triangle and its ray
     origin and unit normal in the quadrature (145 bytes); per coefficient, the texels' float32
     sum (the samples add into it as they finish), the image with its gutter, seams and packed
-    tiles (21 bytes). Both fitted to the peaks measured in docs/texels.md."""
+    tiles (21 bytes). With `back` (an open mesh), its back side's normals and quadrature (BACK_SAMPLE
+    bytes per sample) and its sum and image (BACK_COEFF per coefficient). Fitted to the peaks
+    measured in docs/texels.md."""
     texels = int(resolution) ** 2
-    return texels * (145 * samples_per_texel + 21 * order * order)
+    per_texel = 145 * samples_per_texel + 21 * order * order
+    if back:
+        per_texel += BACK_SAMPLE * samples_per_texel + BACK_COEFF * order * order
+    return texels * per_texel
 
 
 def memory_budget():

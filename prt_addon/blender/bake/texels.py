@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from ...core.transfer import adaptive, contact, lightmap, split, texels
+from ...core.transfer import adaptive, back as back_side, contact, lightmap, split, texels
 from ...core.transfer.mesh import concatenate_parts
 from ..scene import mesh_read
 from .settings import MAX_RESOLUTION, BakeError, memory_budget, texel_memory
@@ -32,6 +32,7 @@ class TexelGeometry:
     seams: object  # core.transfer.lightmap.SeamPairs
     notes: list
     uvs: object = None  # (T, 3, 2) float64 UVs of the loop triangles (the texel nodes of bounces)
+    back_normals: object = None  # (S, P, 3) the back side's sample normals of an open mesh, else None
 
 
 def lightmap_uv_name(mesh, requested):
@@ -199,42 +200,50 @@ def texel_image(samples, coeffs, seams):
 def prepare_texels(plan, mesh_eval, positions, settings, others, build_occluder, unwrapped):
     """The TexelGeometry of a plan, its samples under other surfaces (`others`: the scene's
     parts but the plan's own, [] when the scene does not shadow it) given zero normals (t = 0:
-    they see that surface, as in Cycles), and its notes with the resolution."""
+    they see that surface, as in Cycles), and its notes with the resolution. An open mesh also
+    gets its back side's normals: the samples' turned over, zero where the back lies under
+    another surface (docs/texels.md, "Back side")."""
     s = settings
     try:
         geometry = texel_geometry(plan, mesh_eval, positions, s.uv_map, s.resolution, s.texel_density, unwrapped)
     except BakeError as error:
         raise BakeError(f"'{plan.name}' {error}") from None
     samples = geometry.samples
+    if back_side.is_open(plan.own_triangles):
+        geometry.back_normals = -samples.normals
     vertices, triangles = concatenate_parts(others) if others else (None, np.zeros((0, 3)))
     if len(triangles):
         occluder = build_occluder(vertices, triangles)
-        under = np.stack(
-            [
-                contact.under_other_surfaces(p, n, plan.offset, occluder, vertices, triangles)
-                for p, n in zip(samples.positions, samples.normals)
-            ]
-        )
-        if under.any():
-            samples.normals[under] = 0.0
-            count = int(under.any(axis=0).sum())
-            geometry.notes.append(f"{count:,} texels lie under another surface and are baked as shadowed")
+        sides = [("", samples.normals), (" on their back", geometry.back_normals)]
+        for where, normals in (side for side in sides if side[1] is not None):
+            under = np.stack(
+                [
+                    contact.under_other_surfaces(p, n, plan.offset, occluder, vertices, triangles)
+                    for p, n in zip(samples.positions, normals)
+                ]
+            )
+            if under.any():
+                normals[under] = 0.0
+                count = int(under.any(axis=0).sum())
+                geometry.notes.append(f"{count:,} texels lie under another surface{where} and are baked as shadowed")
     res = geometry.resolution
     geometry.notes.append(f"{res} x {res} texels of UV map '{geometry.uv_name}', {len(samples.texels):,} covered")
     return geometry
 
 
-def texel_computation(plan, directions, settings, pool, hit_sink=None):
+def texel_computation(plan, directions, settings, pool, hit_sink=None, normals=None):
     """The computation of a plan's texels: every texel's samples (core.transfer.split), or with
     settings.adaptive > 0 a lattice first and then the blocks that disagree (core.transfer.adaptive).
     An interreflected bake (a hit_sink) traces every texel: an interpolated texel has no hits, so
-    adaptive sampling is off with bounces."""
+    adaptive sampling is off with bounces. normals: the samples' normals to bake for (default
+    theirs; the back side's, plan.texels.back_normals, for its computation, which has no hits)."""
     samples = plan.texels.samples
+    normals = samples.normals if normals is None else normals
 
     def make(which=slice(None)):
         return split.SplitComputation(
             samples.positions[:, which],
-            samples.normals[:, which],
+            normals[:, which],
             directions,
             settings.order,
             occluder=plan.occluder,
@@ -249,7 +258,7 @@ def texel_computation(plan, directions, settings, pool, hit_sink=None):
 
     if not settings.adaptive or hit_sink is not None:
         return make()
-    lattice = adaptive.AdaptivePlan(samples.texels, samples.normals, samples.resolution)
+    lattice = adaptive.AdaptivePlan(samples.texels, normals, samples.resolution)
     return adaptive.AdaptiveComputation(lattice, make, settings.order, settings.adaptive)
 
 
@@ -264,9 +273,10 @@ def bakes_texels(plan, settings):
     return len(plan.mesh.vertices) < area * settings.texel_density**2 / 16.0
 
 
-def within_memory(so_far, resolution, order):
-    """so_far plus one more lightmap's texel_memory; raises BakeError past memory_budget()."""
-    total = so_far + texel_memory(resolution, order)
+def within_memory(so_far, resolution, order, back=False):
+    """so_far plus one more lightmap's texel_memory (with its back side's); raises BakeError past
+    memory_budget()."""
+    total = so_far + texel_memory(resolution, order, back=back)
     if total > memory_budget():
         raise BakeError(
             f"the lightmaps would take about {total / 2**30:.1f} GiB, more than a bake may use here "

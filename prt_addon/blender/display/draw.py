@@ -158,13 +158,16 @@ def _slot_maps(shader, maps, params):
 
 
 def _relit(state, entry, count, channels):
-    """The object's relit radiance texture, drawn again when the light or the bake changed."""
+    """The object's relit radiance texture (texel_relight.Relit: the front's, and beside it the
+    back's of an open mesh), drawn again when the light or the bake changed."""
     key = (state.light_key, id(entry))
-    if state.relit is None or state.relit.resolution != entry.texel_grid[0]:
-        state.relit = texel_relight.Relit(entry.texel_grid[0])
+    back = entry.back_texture is not None
+    if state.relit is None or state.relit.resolution != entry.texel_grid[0] or state.relit.back != back:
+        state.relit = texel_relight.Relit(entry.texel_grid[0], back)
         state.relit_key = None
     if state.relit_key != key:
-        texel_relight.relight(state.relit, entry.texture, entry.texel_grid, count, state.ubo, channels)
+        back_tiles = entry.back_texture
+        texel_relight.relight(state.relit, entry.texture, entry.texel_grid, count, state.ubo, channels, back_tiles)
         state.relit_key = key
     return state.relit.texture
 

@@ -25,6 +25,7 @@ class MeshEntry:
         self.per_row = per_row
         self.texel_grid = texel_grid  # (texels per side, tiles per row) of a texel bake, else None
         self.evaluated = evaluated  # the evaluated positions it was built for (deformed objects)
+        self.back_texture = None  # (tiles texture, tiles per row) of a texel bake's back side, else None
 
 
 class ObjectState:
@@ -215,13 +216,14 @@ def build_mesh_entry(
     vbo.attr_fill("prt_tan", tangents.astype(np.float32))
     if uvs is not None:
         vbo.attr_fill("prt_albedo_uv", uvs)
-    texture, per_row, grid = None, 0, None
+    texture, per_row, grid, back = None, 0, None, None
     if mode == "ATTR":
         for k in range(vec4s):
             vbo.attr_fill(f"prt_t{k}", np.ascontiguousarray(transfer[:, 4 * k : 4 * k + 4]))
     elif mode == "TEXEL":
         vbo.attr_fill("prt_uv", np.ascontiguousarray(mesh_read.read_corner_uvs(mesh, info.uv_map)))
-        texture, grid = _texel_texture(info)
+        texture, grid = _texel_texture(info.image, info.resolution, texel_storage.total_groups(info))
+        back = _texel_texture(info.back_image, info.resolution, info.count) if info.back_image else None
     else:
         texture, per_row = _transfer_texture(transfer, vec4s)
 
@@ -235,16 +237,18 @@ def build_mesh_entry(
             seq = np.ascontiguousarray(tris[order_idx[s:e]])
             ibo = gpu.types.GPUIndexBuf(type="TRIS", seq=seq)
             batches.append((int(sorted_mat[s]), gpu.types.GPUBatch(type="TRIS", buf=vbo, elem=ibo)))
-    return MeshEntry(key, batches, texture, per_row, evaluated, grid, uvs is not None)
+    entry = MeshEntry(key, batches, texture, per_row, evaluated, grid, uvs is not None)
+    entry.back_texture = None if back is None else (back[0], back[1][1])
+    return entry
 
 
-def _texel_texture(info):
-    """The transfer image of a texel bake as an RGBA32F texture of its tiles, and its grid."""
-    pixels = texel_storage.read_pixels(info.image)
+def _texel_texture(image, resolution, groups):
+    """A texel bake's transfer image of `groups` tiles as an RGBA32F texture, and its grid."""
+    pixels = texel_storage.read_pixels(image)
     height, width = pixels.shape[:2]
     buf = gpu.types.Buffer("FLOAT", pixels.size, np.ascontiguousarray(pixels).reshape(-1))
     tex = gpu.types.GPUTexture((width, height), format="RGBA32F", data=buf)
-    return tex, (info.resolution, texel_storage.tile_grid(texel_storage.total_groups(info))[0])
+    return tex, (resolution, texel_storage.tile_grid(groups)[0])
 
 
 def _transfer_texture(transfer, count):

@@ -76,15 +76,18 @@ def _albedo_diffuse(fragment):
 
 # A texel bake: the relit radiance texture (texel_relight: max(sum_i L_i t_i, 0) per texel, made
 # once per lighting change) read per pixel with the bilinear weights of a GPU's clamp-to-edge
-# filter (texel centres at (i + 0.5) / res), as core's lightmap.bilinear does.
+# filter (texel centres at (i + 0.5) / res), as core's lightmap.bilinear does; x0: the first
+# column of the side read (an open mesh's back side is relit beside its front, from column res).
 _TEXEL_FUNCTION = """
-vec3 texel_transfer()
+vec3 texel_transfer(int x0)
 {
   int res = texel_grid.x;
   vec2 p = clamp(texel_uv * float(res) - 0.5, vec2(0.0), vec2(float(res - 1)));
   ivec2 a = ivec2(floor(p));
   ivec2 b = min(a + 1, ivec2(res - 1));
   vec2 f = p - vec2(a);
+  a.x += x0;
+  b.x += x0;
   vec3 low = mix(texelFetch(transfer_tx, a, 0).rgb, texelFetch(transfer_tx, ivec2(b.x, a.y), 0).rgb, f.x);
   vec3 high = mix(texelFetch(transfer_tx, ivec2(a.x, b.y), 0).rgb, texelFetch(transfer_tx, b, 0).rgb, f.x);
   return mix(low, high, f.y);
@@ -92,11 +95,27 @@ vec3 texel_transfer()
 """
 
 
+def _texel_back(info, vertex, fragment):
+    """(vertex, fragment) of a texel bake with a back side: faces seen from behind read the relit
+    texture's back half (texel_relight), with the suns' normal flipped there (as _back_side)."""
+    iface = gpu.types.GPUStageInterfaceInfo("prt_back_iface")
+    iface.flat("FLOAT", "prt_facing")
+    info.vertex_out(iface)
+    front = "vec3 prt_texel = texel_transfer(0);"
+    back = "vec3 prt_texel = texel_transfer(prt_front() ? 0 : texel_grid.x);"
+    assert "  radiance = max(r," in vertex and front in fragment
+    facing = "  prt_facing = determinant(mvp) < 0.0 ? 1.0 : -1.0;\n"
+    vertex = vertex.replace("  radiance = max(r,", facing + "  radiance = max(r,", 1)
+    fragment = fragment.replace(front, back, 1)
+    fragment = fragment.replace("local_nrm)));\n", "local_nrm)));\n  n = prt_front() ? n : -n;\n", 1)
+    return vertex, _BACK_FUNCTION + fragment
+
+
 def _texel_fragment(fragment, count):
     """`fragment` with the radiance multiplied per pixel by the texel bake's transfer."""
     main = "void main()\n{\n"
     assert main in fragment and "display_transform(radiance" in fragment
-    fragment = fragment.replace(main, main + "  vec3 prt_texel = texel_transfer();\n", 1)
+    fragment = fragment.replace(main, main + "  vec3 prt_texel = texel_transfer(0);\n", 1)
     fragment = fragment.replace("display_transform(radiance", "display_transform(radiance * prt_texel", 1)
     return _TEXEL_FUNCTION + fragment
 
@@ -164,11 +183,12 @@ def get_shader(
     is a (compact views, wide views) pair (shader_suns.view_layout; None or (0, 0): no suns) and a bounced transfer
     of `bounce_channels` channels (0: none), with the Principled specular when `specular`
     (shader_specular), with an albedo image per pixel when `textured` (albedo_texture), with the back
-    side's transfer drawn on back faces when `back`, with the Principled inputs' images per pixel
-    when `spec_maps` (material_maps; specular and textured only) (cached).
+    side's transfer drawn on back faces when `back` (a texel bake: its relit texture's back half),
+    with the Principled inputs' images per pixel when `spec_maps` (material_maps; specular and
+    textured only) (cached).
     Raises RuntimeError on failure."""
-    back = bool(back) and domain != "TEXEL"
-    total = transfer_vec4s(count, bounce_channels, back)
+    back = bool(back)
+    total = transfer_vec4s(count, bounce_channels, back and domain != "TEXEL")
     mode = shader_mode(total, domain, textured)
     lights = tuple(lights) if lights and any(lights) else None
     spec_maps = bool(spec_maps and specular and textured)
@@ -246,10 +266,12 @@ def get_shader(
         iface.smooth("VEC3", "radiance")
         info.vertex_out(iface)
         vertex, fragment = _VERTEX_COMMON % body, _FRAGMENT
-    if back:
+    if back and mode != "TEXEL":
         vertex, fragment = _back_side(info, vertex, fragment, count * (1 + bounce_channels), count, mode)
     if mode == "TEXEL":
         fragment = _texel_fragment(fragment, count)
+        if back:
+            vertex, fragment = _texel_back(info, vertex, fragment)
     if textured:
         fragment = _albedo_diffuse(fragment)
     if specular:

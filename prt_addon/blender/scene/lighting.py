@@ -127,8 +127,8 @@ def shade(obj, scene=None, side="FRONT"):
     power / pi * max(0, n . s) * V with V traced against the scene's meshes
     (light_shading.light_radiance). One row per vertex for a POINT bake, per face corner for a
     CORNER bake; for a TEXEL bake (res, res, 3), one value per texel (texel_shading). side
-    "BACK": the back side of an open mesh's vertex bake (its own transfer, the lights' cosine on
-    the flipped normal; direct light only, docs/bake.md "Back faces")."""
+    "BACK": the back side of an open mesh (its own transfer, the lights' cosine on the flipped
+    normal; direct light only, docs/bake.md "Back faces")."""
     if side not in SIDES:
         raise ValueError(f"side must be 'FRONT' or 'BACK', not {side!r}")
     scene = scene if scene is not None else bpy.context.scene
@@ -139,8 +139,8 @@ def shade(obj, scene=None, side="FRONT"):
         raise ValueError(f"'{obj.name}': {problem}: bake it (PRT tab > Bake Transfer)")
     if side == "BACK" and not info.back:
         raise ValueError(
-            f"'{obj.name}' has no back-side transfer: only open meshes (with boundary edges) baked "
-            "per vertex or corner have one; a closed mesh's back faces are never seen"
+            f"'{obj.name}' has no back-side transfer: only open meshes (with boundary edges) have "
+            "one; a closed mesh's back faces are never seen"
         )
     light = object_light(obj, scene, info.order)
     if light is None:
@@ -148,8 +148,8 @@ def shade(obj, scene=None, side="FRONT"):
     lights = world_lights(scene)
     if info.domain == "TEXEL":  # (res, res, 3) per texel, laid out as Image.pixels
         bounce_light = light + bounce_light_extra(obj, lights, info.order) if info.channels else None
-        radiance = texel_shading.sky_radiance(info, light, bounce_light)
-        return radiance + texel_shading.light_radiance(obj, depsgraph, lights, info) if lights else radiance
+        radiance = texel_shading.sky_radiance(info, light, bounce_light, side)
+        return radiance + texel_shading.light_radiance(obj, depsgraph, lights, info, side=side) if lights else radiance
     if side == "BACK":
         transfer = back_storage.read_back(mesh, info.count, info.order).astype(np.float64)
         radiance = np.maximum(transfer @ light, 0.0)

@@ -113,21 +113,6 @@ def restore(mesh, snap):
     mesh.update()
 
 
-def write_texels(mesh, image, record, uv_name, created_uvs, staged, bounce=None):
-    """Write a texel bake's (res, res, n*n) coefficients as a staged image (committed by
-    write_bakes), the UV map it made (`created_uvs`, (corners, 2), or None) and the record;
-    bounce: None or the (res, res, C, n*n) bounced transfer, its channels as further tiles."""
-    for name in transfer_attribute_names(mesh):
-        _remove(mesh, name)
-    uv_name = texel_storage.write_uv_map(mesh, uv_name, created_uvs)
-    count = attribute_count(int(record["order"]))
-    packed = texel_storage.pack_parts(image, bounce, count)
-    staged.append((mesh, texel_storage.stage_image(texel_storage.image_name(mesh), packed)))
-    fields = texel_storage.record_fields(mesh, image.shape[0], uv_name, 0 if bounce is None else bounce.shape[2])
-    mesh[RECORD] = dict(record, count=count, domain="TEXEL", **fields)
-    mesh.update()
-
-
 def write_transfer(mesh, values, domain, record, bounce=None):
     """Write (E, n*n) float32 coefficients as prt_tKK attributes and the record on one mesh;
     bounce: None or the (E, C, n*n) bounced transfer, written after them channel by channel,
@@ -164,23 +149,26 @@ def write_transfer(mesh, values, domain, record, bounce=None):
 def write_bakes(items):
     """items: [(mesh, values, domain, record[, bounce[, back (E, n*n) or None]])], for a TEXEL
     domain [(mesh, image, "TEXEL", record, (uv name, created UVs or None[, bounced (res, res, C,
-    n*n) or None]))]. All are written, or none (state restored: attributes, records, the UV maps
-    made; the previous images are replaced only at the end)."""
+    n*n) or None[, back (res, res, n*n) or None]]))]. All are written, or none (state restored:
+    attributes, records, the UV maps made; the previous images are replaced only at the end)."""
     snapshots = [(item[0], snapshot(item[0])) for item in items]
-    old_images = {item[0].name: _record_image(snap) for item, (_m, snap) in zip(items, snapshots)}
+    old_images = {mesh.name: texel_storage.record_images(snap["record"]) for mesh, snap in snapshots}
     staged, made_uvs = [], []
     try:
         for mesh, values, domain, record, extra, back in (tuple(item) + (None,) * (6 - len(item)) for item in items):
             if domain == "TEXEL":
-                uv_name, created, bounce = tuple(extra) + (None,) * (3 - len(extra))
+                uv_name, created, bounce, back = tuple(extra) + (None,) * (4 - len(extra))
                 if created is not None and uv_name not in mesh.uv_layers:
                     made_uvs.append((mesh, uv_name))
-                write_texels(mesh, values, record, uv_name, created, staged, bounce)
+                for name in transfer_attribute_names(mesh):
+                    _remove(mesh, name)
+                count = attribute_count(int(record["order"]))
+                texel_storage.write_texels(mesh, values, record, count, (uv_name, created), staged, bounce, back)
             else:
                 write_transfer(mesh, values, domain, record, extra)
                 back_storage.write_back(mesh, back, domain)
     except BaseException:
-        for image in (image for _mesh, image in staged):
+        for image in (image for _mesh, _key, image in staged):
             texel_storage.discard_image(image)
         for mesh, snap in snapshots:
             restore(mesh, snap)
@@ -189,17 +177,12 @@ def write_bakes(items):
                 mesh.uv_layers.remove(mesh.uv_layers[uv_name])
         raise
     names = {}
-    for mesh, image in staged:
-        names[mesh.name] = texel_storage.commit_image(image, texel_storage.image_name(mesh))
-        mesh[RECORD]["image"] = names[mesh.name]
+    for mesh, key, image in staged:
+        mesh[RECORD][key] = texel_storage.commit_image(image, texel_storage.image_name(mesh, key == "back_image"))
+        names.setdefault(mesh.name, set()).add(mesh[RECORD][key])
     for mesh_name, old in old_images.items():
-        if old and old != names.get(mesh_name):
-            texel_storage.remove_image(old)
-
-
-def _record_image(snap):
-    record = snap["record"]
-    return record.get("image") if isinstance(record, dict) and record.get("domain") == "TEXEL" else None
+        for name in old - names.get(mesh_name, set()):
+            texel_storage.remove_image(name)
 
 
 @dataclass
@@ -214,7 +197,8 @@ class BakeRecord:
     resolution: int = 0  # texels per side (TEXEL domain)
     image: object = None  # the transfer image (TEXEL domain)
     uv_map: str = ""  # the UV map baked into (TEXEL domain)
-    back: bool = False  # whether the back side has its own transfer (back_storage)
+    back: bool = False  # whether the back side has its own transfer (back_storage; texels: back_image)
+    back_image: object = None  # the back side's transfer image (TEXEL domain)
 
 
 def read_bake_record(mesh):
@@ -264,7 +248,10 @@ def _read_texel_record(record, order, count, channels):
     image = texel_storage.find_image(name, res, count * (1 + channels))
     if image is None:
         return None, f"its transfer image '{name}' is missing or was resized"
-    return BakeRecord(order, count, "TEXEL", record, channels, res, image, uv_map), ""
+    back, problem = texel_storage.find_back_image(record, res, count)
+    if problem:
+        return None, problem
+    return BakeRecord(order, count, "TEXEL", record, channels, res, image, uv_map, back is not None, back), ""
 
 
 def read_transfer(mesh, bake=None, padded=False):

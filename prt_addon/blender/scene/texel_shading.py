@@ -20,15 +20,17 @@ def texel_samples(obj_eval, bake):
     return texels.texel_samples(corner_uvs[corners].astype(np.float64), world, normals, bake.resolution, inset=inset)
 
 
-def sky_radiance(bake, light, bounce_light=None):
+def sky_radiance(bake, light, bounce_light=None, side="FRONT"):
     """(res, res, 3) max(sum_i L_i t_i, 0) per texel for a local-frame light (n*n, 3); with
     bounces t = direct + bounced, the bounced part lit by `bounce_light` (default: light), as
-    lighting.shade does for vertex bakes."""
+    lighting.shade does for vertex bakes. side "BACK": the back side's image (direct only)."""
     n2 = bake.order * bake.order
-    transfer = texel_storage.read_texel_transfer(bake).reshape(-1, n2).astype(np.float64)
+    back = side == "BACK"
+    read = texel_storage.read_texel_back if back else texel_storage.read_texel_transfer
+    transfer = read(bake).reshape(-1, n2).astype(np.float64)
     res = bake.resolution
     radiance = transfer @ light[:n2]
-    bounced = texel_storage.read_texel_bounce(bake)
+    bounced = None if back else texel_storage.read_texel_bounce(bake)
     if bounced is not None:
         full = np.asarray(light if bounce_light is None else bounce_light, dtype=np.float64)[:n2]
         bounced = bounced.reshape(res * res, bake.channels, n2)
@@ -37,9 +39,10 @@ def sky_radiance(bake, light, bounce_light=None):
     return np.maximum(radiance, 0.0).reshape(res, res, 3)
 
 
-def light_radiance(obj, depsgraph, lights, bake, rays_per_light=RAYS_PER_LIGHT):
+def light_radiance(obj, depsgraph, lights, bake, rays_per_light=RAYS_PER_LIGHT, side="FRONT"):
     """(res, res, 3) radiance of the split lights per texel (white albedo): the mean over each
-    texel's samples of P/pi max(0, n.s) V, shadowed as the bake was; the gutter filled."""
+    texel's samples of P/pi max(0, n.s) V, shadowed as the bake was; the gutter filled. side
+    "BACK": on the samples' flipped normals, the ray origins offset to the back."""
     if not lights:
         return np.zeros((bake.resolution, bake.resolution, 3))
     obj_eval = obj.evaluated_get(depsgraph)
@@ -52,7 +55,8 @@ def light_radiance(obj, depsgraph, lights, bake, rays_per_light=RAYS_PER_LIGHT):
     count = len(samples.positions)
     total = np.zeros((len(samples.texels), 3))
     rays = max(1, -(-rays_per_light // count))  # the light's rays shared between the samples
-    for points, normals in zip(samples.positions, samples.normals):
+    flip = -1.0 if side == "BACK" else 1.0
+    for points, normals in zip(samples.positions, flip * samples.normals):
         visibility = None
         if occluder is not None:
             visibility = light_visibility.light_visibility(

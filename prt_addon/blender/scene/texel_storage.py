@@ -4,7 +4,8 @@ A texel bake of order n has n^2 coefficients per texel, four to an RGBA texel: G
 tiles of res x res, laid out in a grid of `tiles_x` columns (tile g at column g % tiles_x, row
 g // tiles_x) so the image stays within the GPU's texture size. An interreflected bake with C
 bounce channels (1 or 3) has (1 + C) G tiles: the direct transfer's G, then each channel's
-bounced transfer as G more (tile c G + g). Row 0 of every tile is v = 0, as
+bounced transfer as G more (tile c G + g). The back side of an open mesh is an image of its own,
+G tiles of its direct transfer (image_name(mesh, back=True)). Row 0 of every tile is v = 0, as
 in Image.pixels. The images are Non-Color float images (is_data: the values are kept exactly,
 negative ones too), packed (saved in the .blend as OpenEXR) with a fake user.
 """
@@ -17,11 +18,16 @@ import numpy as np
 from .mesh_read import uv_fingerprint, uv_map_names
 
 IMAGE_PREFIX = "PRT "
+RECORD = "prt_bake"
 
 
-def image_name(mesh):
-    """The name users see for a mesh's transfer image: "PRT <mesh name>"."""
-    return f"{IMAGE_PREFIX}{mesh.name}"
+BACK_SUFFIX = " (back)"
+
+
+def image_name(mesh, back=False):
+    """The name users see for a mesh's transfer image: "PRT <mesh name>", and for the back side
+    of an open mesh "PRT <mesh name> (back)"."""
+    return f"{IMAGE_PREFIX}{mesh.name}{BACK_SUFFIX if back else ''}"
 
 
 def tile_grid(groups):
@@ -80,11 +86,12 @@ def write_uv_map(mesh, uv_name, created_uvs):
     return layer.name
 
 
-def record_fields(mesh, res, uv_name, channels=0):
+def record_fields(mesh, res, uv_name, channels=0, back=False):
     """The bake record's texel fields: resolution, UV map and its fingerprint, the image's name,
     the bounce channels and the format version (3, or 4 with bounce tiles: older readers refuse
-    what they would misread, and read the rest)."""
-    return {
+    what they would misread, and read the rest); with `back`, the back side's image (`back`,
+    `back_image`: older readers draw the front, as before)."""
+    fields = {
         "bounce_channels": int(channels),
         "version": 4 if channels else 3,
         "resolution": res,
@@ -92,6 +99,34 @@ def record_fields(mesh, res, uv_name, channels=0):
         "uv_fingerprint": uv_fingerprint(mesh, uv_name),
         "image": image_name(mesh),
     }
+    if back:
+        fields.update(back=1, back_image=image_name(mesh, back=True))
+    return fields
+
+
+def write_texels(mesh, image, record, count, uv, staged, bounce=None, back=None):
+    """Write a texel bake's (res, res, n*n) coefficients as a staged image (`staged` gets
+    (mesh, record key, image); storage.write_bakes commits them), the UV map it made (uv: (name,
+    (corners, 2) UVs or None)) and the record with `count` tiles per part; bounce: None or the
+    (res, res, C, n*n) bounced transfer, its channels as further tiles; back: None or the back
+    side's (res, res, n*n), an image of its own."""
+    uv_name = write_uv_map(mesh, *uv)
+    packed = pack_parts(image, bounce, count)
+    for key, values in (("image", packed), ("back_image", back)):
+        if values is not None:
+            name = image_name(mesh, back=key == "back_image")
+            staged.append((mesh, key, stage_image(name, np.asarray(values, np.float32))))
+    channels = 0 if bounce is None else bounce.shape[2]
+    fields = record_fields(mesh, image.shape[0], uv_name, channels, back is not None)
+    mesh[RECORD] = dict(record, count=count, domain="TEXEL", **fields)
+    mesh.update()
+
+
+def record_images(record):
+    """The names of a texel bake's images in a record (a dict, or None): the front's, the back's."""
+    if not isinstance(record, dict) or record.get("domain") != "TEXEL":
+        return set()
+    return {str(record[key]) for key in ("image", "back_image") if record.get(key)}
 
 
 def stage_image(name, image):
@@ -142,6 +177,15 @@ def find_image(name, res, groups):
     return image
 
 
+def find_back_image(record, res, groups):
+    """(the back side's transfer image or None, why it is unreadable or "") of a texel record."""
+    if not int(record.get("back", 0)):
+        return None, ""
+    name = str(record.get("back_image", ""))
+    image = find_image(name, res, groups)
+    return (None, f"its back-side image '{name}' is missing or was resized") if image is None else (image, "")
+
+
 def read_pixels(image):
     """(H, W, 4) float32 pixels of an image."""
     width, height = image.size
@@ -182,6 +226,12 @@ def read_texel_bounce(bake, padded=False):
     if not bake.channels:
         return None
     return np.stack([_read_part(bake, 1 + c, padded) for c in range(bake.channels)], axis=2)
+
+
+def read_texel_back(bake, padded=False):
+    """(res, res, n*n) float32 back-side coefficients of a texel bake (4 * count with padded)."""
+    values = from_tiles(read_pixels(bake.back_image), bake.resolution, bake.count)
+    return np.ascontiguousarray(values if padded else values[..., : bake.order * bake.order])
 
 
 def stale_uv_map(mesh, bake):
