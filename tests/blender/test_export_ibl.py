@@ -3,8 +3,6 @@
 import json
 import os
 import subprocess
-import sys
-import time
 
 import numpy as np
 import pytest
@@ -38,22 +36,13 @@ def forest_scene(empty_scene, bpy_module):
     return empty_scene
 
 
-def test_extension_json_is_complete(forest_scene, tmp_path, capsys):
+def test_extension_json_is_complete(forest_scene, tmp_path):
     from prt_addon.blender.export import glb, gltf, ibl
     from prt_addon.core.ibl import prefilter
     from prt_addon.core.sh import basis as sh
 
     path = str(tmp_path / "forest.glb")
-    start = time.perf_counter()
     gltf.export_gltf(path)
-    seconds = time.perf_counter() - start
-    plain = str(tmp_path / "plain.glb")
-    start = time.perf_counter()
-    gltf.export_gltf(plain, environment_size=0)
-    seconds_plain = time.perf_counter() - start
-    with capsys.disabled():
-        print(f"\nexport with the 128 environment {seconds:.2f} s, without {seconds_plain:.2f} s", file=sys.stderr)
-    assert seconds - seconds_plain < 10.0  # measured 1.5-2.5 s on 2 cores (docs/export.md)
     document, chunks = glb.read(path)
     assert ibl.EXTENSION in document["extensionsUsed"]
     assert ibl.EXTENSION not in document.get("extensionsRequired", [])
@@ -90,6 +79,8 @@ def test_extension_json_is_complete(forest_scene, tmp_path, capsys):
     assert np.allclose(ibl.babylon_irradiance(light["irradianceCoefficients"], g), ours, rtol=1e-12, atol=1e-9)
     assert light["extras"]["PRT_lighting"]["roughness"] == pytest.approx(np.sqrt(prefilter.babylon_alphas(128)))
     # The file without the environment has no trace of it.
+    plain = str(tmp_path / "plain.glb")
+    gltf.export_gltf(plain, environment_size=0)
     document_plain, _ = glb.read(plain)
     assert "extensions" not in document_plain
     assert ibl.EXTENSION not in document_plain.get("extensionsUsed", [])
