@@ -16,28 +16,39 @@ const ROUGH_FROM = 0.3;
 const ROUGH_SPAN = 0.3;
 export const BAND_COUNT = 32;
 
-function halfRgbToRgba(bytes, texels) {
-  const rgb = new Uint16Array(bytes.buffer, bytes.byteOffset, texels * 3);
-  const out = new Uint16Array(texels * 4);
-  for (let i = 0; i < texels; i++) {
-    out[4 * i] = rgb[3 * i];
-    out[4 * i + 1] = rgb[3 * i + 1];
-    out[4 * i + 2] = rgb[3 * i + 2];
-    out[4 * i + 3] = 0x3c00; // 1.0
+// The levels (half RGB, level k's rows above level k - 1's) as the slices of a half RGBA 3D
+// texture, each row with its last texel copied before its first and its first after its last, so
+// that one clamp-to-edge trilinear fetch wraps in longitude (as sky_texture.py's).
+function wrappedLevels(bytes, levels, width, height) {
+  const rgb = new Uint16Array(bytes.buffer, bytes.byteOffset, levels * width * height * 3);
+  const padded = width + 2;
+  const out = new Uint16Array(levels * height * padded * 4);
+  for (let row = 0; row < levels * height; row++) {
+    for (let x = 0; x < padded; x++) {
+      const i = 3 * (row * width + ((x + width - 1) % width));
+      const o = 4 * (row * padded + x);
+      out[o] = rgb[i];
+      out[o + 1] = rgb[i + 1];
+      out[o + 2] = rgb[i + 2];
+      out[o + 3] = 0x3c00; // 1.0
+    }
   }
-  return out;
+  const texture = new THREE.Data3DTexture(out, padded, height, levels);
+  texture.format = THREE.RGBAFormat;
+  texture.type = THREE.HalfFloatType;
+  return filtered(texture);
 }
 
-function dataTexture(data, width, height, type) {
-  const texture = new THREE.DataTexture(data, width, height, THREE.RGBAFormat, type);
-  texture.minFilter = texture.magFilter = THREE.NearestFilter;
+function filtered(texture) {
+  texture.minFilter = texture.magFilter = THREE.LinearFilter;
   texture.generateMipmaps = false;
+  texture.unpackAlignment = 1;
   texture.needsUpdate = true;
   return texture;
 }
 
 /** The file's specular data (the scene extras' `specular`, docs/export.md) as textures: the sky
- * levels stacked (level k's rows above level k - 1's), the table (RG), the rows; null without. */
+ * levels (a 3D texture, wrappedLevels), the table (RG), the rows; null without. */
 export async function loadSpecular(parser, block) {
   if (!block || !block.sky || !block.brdf || !Array.isArray(block.sky_rows)) return null;
   const { levels, width, height } = block.sky;
@@ -47,15 +58,16 @@ export async function loadSpecular(parser, block) {
   if (sky.byteLength < texels * 6) throw new Error('the specular sky is truncated');
   const size = block.brdf.size;
   if (table.byteLength < size * size * 8) throw new Error('the split-sum table is truncated');
+  // The table as half floats: WebGL2 filters those everywhere (32-bit floats need an extension).
   const rg = new Float32Array(table.slice(0, size * size * 8));
-  const rgba = new Float32Array(size * size * 4);
+  const rgba = new Uint16Array(size * size * 4);
   for (let i = 0; i < size * size; i++) {
-    rgba[4 * i] = rg[2 * i];
-    rgba[4 * i + 1] = rg[2 * i + 1];
+    rgba[4 * i] = THREE.DataUtils.toHalfFloat(rg[2 * i]);
+    rgba[4 * i + 1] = THREE.DataUtils.toHalfFloat(rg[2 * i + 1]);
   }
   return {
-    sky: dataTexture(halfRgbToRgba(new Uint8Array(sky), texels), width, levels * height, THREE.HalfFloatType),
-    table: dataTexture(rgba, size, size, THREE.FloatType),
+    sky: wrappedLevels(new Uint8Array(sky), levels, width, height),
+    table: filtered(new THREE.DataTexture(rgba, size, size, THREE.RGBAFormat, THREE.HalfFloatType)),
     levels,
     width,
     height,
@@ -155,7 +167,7 @@ export function specularVertex(source, order) {
 
 /** Fragment GLSL: the sky, the table, the lobe's albedo, the occlusion, the shading (spec_shade). */
 export const SPECULAR_FRAGMENT = `
-uniform sampler2D prtSkyTx;
+uniform highp sampler3D prtSkyTx;
 uniform sampler2D prtBrdfTx;
 uniform mat3 prtSkyRows;
 uniform vec3 prtSkySize;
@@ -173,42 +185,17 @@ float spec_alpha;
 vec3 spec_f0;
 vec2 spec_ab;
 
-vec3 skyTexel(int x, int y) {
-  return texelFetch(prtSkyTx, ivec2(x, y), 0).rgb;
-}
-
-vec3 skyLevel(int level, vec2 uv) {
-  int w = int(prtSkySize.y);
-  int h = int(prtSkySize.z);
-  vec2 p = uv * vec2(float(w), float(h)) - 0.5;
-  p.y = clamp(p.y, 0.0, float(h - 1));
-  ivec2 a = ivec2(floor(p));
-  vec2 f = p - vec2(a);
-  int x0 = (a.x % w + w) % w;
-  int x1 = (x0 + 1) % w;
-  int y0 = level * h + a.y;
-  int y1 = level * h + min(a.y + 1, h - 1);
-  return mix(mix(skyTexel(x0, y0), skyTexel(x1, y0), f.x), mix(skyTexel(x0, y1), skyTexel(x1, y1), f.x), f.y);
-}
-
 vec3 skyRadiance(vec3 d, float roughness) {
+  // One trilinear fetch: bilinear in the level (x past the wrapped column), linear between levels.
   vec3 q = prtSkyRows * d;
   vec2 uv = vec2(-atan(q.y, q.x) / (2.0 * 3.14159265) + 0.5, atan(q.z, length(q.xy)) / 3.14159265 + 0.5);
-  float level = roughness * (prtSkySize.x - 1.0);
-  int l0 = int(floor(level));
-  int l1 = min(l0 + 1, int(prtSkySize.x) - 1);
-  return mix(skyLevel(l0, uv), skyLevel(l1, uv), level - float(l0));
+  float x = (1.0 + uv.x * prtSkySize.y) / (prtSkySize.y + 2.0);
+  float z = (roughness * (prtSkySize.x - 1.0) + 0.5) / prtSkySize.x;
+  return texture(prtSkyTx, vec3(x, uv.y, z)).rgb;
 }
 
 vec2 brdfAB(float nv, float roughness) {
-  vec2 size = vec2(textureSize(prtBrdfTx, 0));
-  vec2 p = clamp(vec2(nv, roughness) * size - 0.5, vec2(0.0), size - 1.0);
-  ivec2 a = ivec2(floor(p));
-  ivec2 b = min(a + 1, ivec2(size) - 1);
-  vec2 f = p - vec2(a);
-  vec2 low = mix(texelFetch(prtBrdfTx, a, 0).rg, texelFetch(prtBrdfTx, ivec2(b.x, a.y), 0).rg, f.x);
-  vec2 high = mix(texelFetch(prtBrdfTx, ivec2(a.x, b.y), 0).rg, texelFetch(prtBrdfTx, b, 0).rg, f.x);
-  return mix(low, high, f.y);
+  return texture(prtBrdfTx, vec2(nv, roughness)).rg; // (bilinear, clamped to the edge)
 }
 
 vec3 lobeAlbedo(vec3 f0) {
