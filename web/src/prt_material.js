@@ -83,7 +83,7 @@ function surfaceFragment(surface) {
 
 const VERTEX = (count, views, channels, source, surface, glossy) => `
 ${source.glsl}
-${glossy ? specularVertex(source, glossy.order) : ''}
+${glossy ? specularVertex(source) : ''}
 ${source.stage === 'texel' ? `attribute vec2 ${source.uvAttribute};\nvarying vec2 prtUv;` : ''}
 ${surfaceVertex(surface, source)}
 ${source.radianceVertex ? 'uniform sampler2D prtRadianceTx;' : ''}

@@ -6,7 +6,8 @@
 // frame: looked up at rows * d, rows the file's glTF -> image rows times the lighting turn's
 // inverse) at Frostbite's dominant direction, E_spec the multiple-scattering albedo from the
 // split-sum table, occ the specular occlusion from the transfer (the cones of bands 0 and 1 below
-// roughness 0.3, the lobe-weighted visibility of the full transfer above 0.6, per vertex), the
+// roughness 0.3, the lobe-weighted visibility of the full transfer above 0.6, per vertex:
+// occlusion.js), the
 // split lights' GGX at the representative point of each view's disc with its shadow map's
 // visibility, each view weighted by its share of its light's power.
 import * as THREE from 'three';
@@ -93,15 +94,13 @@ export function readMaterial(extras) {
 }
 
 /** Vertex GLSL: the first transfer vec4 (bands 0 and 1) and the full transfer's occlusion at the
- * vertex's reflection direction (the real SH basis by its recurrences, as shader_specular's
- * occlusion_lines); a source without decoded values at the vertex (packed, texel) is open. */
-export function specularVertex(source, order) {
+ * vertex's reflection direction, read from the occlusion pass's texture (occlusion.js) at the
+ * vertex; a source without decoded values at the vertex (packed, texel) is open. */
+export function specularVertex(source) {
   const decoded = source.kind === 'texture';
   const lines = [
     'uniform mat3 nrmMatrix;',
-    'uniform mat3 prtFrame;',
-    'uniform vec4 prtBands[8];',
-    'uniform vec4 prtOpen[8];',
+    decoded ? 'uniform sampler2D prtOcclusionTx;' : '',
     'varying vec3 prtSpecPos;',
     'varying vec3 prtSpecNrm;',
     'varying vec4 prtSpecVis;',
@@ -110,58 +109,13 @@ export function specularVertex(source, order) {
     '  prtSpecPos = wp;',
     '  prtSpecNrm = nrmMatrix * normal;',
   ];
-  if (!decoded) {
-    lines.push(`  prtSpecVis = vec4(${Y0}, 0.0, 0.0, 0.0);`, '  prtSpecOcc = 1.0;', '}');
-    return lines.join('\n');
-  }
-  const n = Math.min(order, BAND_COUNT);
-  const vec4s = Math.ceil((n * n) / 4);
-  for (let k = 0; k < vec4s; k++) lines.push(`  vec4 q${k} = ${source.fetch(k)};`);
-  const coeff = (i) => `q${i >> 2}[${i & 3}]`;
-  const band = (l) => `prtBands[${l >> 2}][${l & 3}]`;
-  lines.push(
-    '  prtSpecVis = q0;',
-    '  vec3 sn = normalize(prtSpecNrm);',
-    '  vec3 sv = isOrthographic ? vec3(viewMatrix[0][2], viewMatrix[1][2], viewMatrix[2][2]) : normalize(cameraPosition - wp);',
-    '  vec3 sr = reflect(-sv, sn);',
-    '  vec3 d = transpose(prtFrame) * sr;',
-    '  float seen = 0.0;',
-    '  float c0 = 1.0;',
-    '  float s0 = 0.0;',
-  );
-  let factorial = 1;
-  for (let m = 0; m < n; m++) {
-    if (m > 0) {
-      lines.push(`  float c${m} = d.x * c${m - 1} - d.y * s${m - 1};`);
-      lines.push(`  float s${m} = d.x * s${m - 1} + d.y * c${m - 1};`);
-      factorial *= 2 * m - 1;
-    }
-    for (let l = m; l < n; l++) {
-      let q;
-      if (l === m) q = `${factorial.toFixed(1)}`;
-      else if (l === m + 1) q = `${2 * m + 1}.0 * d.z * Q${l - 1}_${m}`;
-      else q = `(${2 * l - 1}.0 * d.z * Q${l - 1}_${m} - ${l + m - 1}.0 * Q${l - 2}_${m}) / ${l - m}.0`;
-      lines.push(`  float Q${l}_${m} = ${q};`);
-      let ratio = 1;
-      for (let j = l - m + 1; j <= l + m; j++) ratio *= j;
-      let k = Math.sqrt((2 * l + 1) / (4 * Math.PI) / ratio);
-      if (m === 0) lines.push(`  seen += ${band(l)} * ${coeff(l * l + l)} * (${k.toExponential(16)} * Q${l}_0);`);
-      else {
-        k *= Math.SQRT2;
-        lines.push(
-          `  seen += ${band(l)} * (${k.toExponential(16)} * Q${l}_${m}) * (${coeff(l * l + l + m)} * c${m} + ${coeff(l * l + l - m)} * s${m});`,
-        );
-      }
-    }
-  }
-  lines.push('  float mu = dot(sn, sr);', '  float p0 = 1.0;', '  float p1 = mu;');
-  const terms = ['prtOpen[0][0]'];
-  if (n > 1) terms.push('prtOpen[0][1] * mu');
-  for (let l = 2; l < n; l++) {
-    lines.push(`  float p${l} = (${2 * l - 1}.0 * mu * p${l - 1} - ${l - 1}.0 * p${l - 2}) / ${l}.0;`);
-    terms.push(`prtOpen[${l >> 2}][${l & 3}] * p${l}`);
-  }
-  lines.push(`  float open_ = ${terms.join(' + ')};`, '  prtSpecOcc = open_ > 1e-8 ? seen / open_ : 1.0;', '}');
+  if (!decoded) lines.push(`  prtSpecVis = vec4(${Y0}, 0.0, 0.0, 0.0);`, '  prtSpecOcc = 1.0;', '}');
+  else
+    lines.push(
+      `  prtSpecVis = ${source.fetch(0)};`,
+      '  prtSpecOcc = texelFetch(prtOcclusionTx, ivec2(gl_VertexID % prtPerRow, gl_VertexID / prtPerRow), 0).r;',
+      '}',
+    );
   return lines.join('\n');
 }
 
@@ -295,5 +249,6 @@ export function specularUniforms(shared, surface) {
     prtFrame: { value: new THREE.Matrix3() },
     prtBands: { value: surface.bands },
     prtOpen: { value: surface.open },
+    prtOcclusionTx: { value: null }, // (occlusion.js's texture, for a source decoded at the vertex)
   };
 }
