@@ -3,12 +3,12 @@
 // The lobe-weighted visibility at the vertex's reflection direction (docs/specular.md: sum_lm
 // k_l t_lm y_lm(R) over the open transfer's sum_l k_l z_l sqrt((2l + 1) / 4 pi) P_l(n.R), the real
 // SH basis by its recurrences, as shader_specular.py's occlusion_lines) depends on the view, so it
-// cannot be relit once per lighting change; but evaluated in the frame's vertex stage it ran for
-// every index (SwiftShader ran the 16 fetches and the basis once per index, 3M for 1M triangles:
-// docs/export.md, "Speed"). Here the mesh's vertices are drawn once as points, one per texel of
-// a float target in the relight's layout (vertex v at (v % perRow, v / perRow)), each point's
-// vertex shader evaluating its vertex's occlusion; it runs again only when the eye point (the
-// camera's position, or its direction for an orthographic camera) or the node's matrix changed.
+// cannot be relit once per lighting change; and in the frame's vertex stage SwiftShader runs it
+// for more than the mesh's vertices (1M triangles hold 3M indices: docs/export.md, "Speed").
+// Here the mesh's vertices are drawn once as points, one per texel of a float target in the
+// relight's layout (vertex v at (v % perRow, v / perRow)), each point's vertex shader evaluating
+// its vertex's occlusion; it runs again only when the eye point (the camera's position, or its
+// direction for an orthographic camera) or the node's matrix changed.
 import * as THREE from 'three';
 
 /** GLSL lines setting `float occ` from the transfer's vec4s `fetch(k)` at the world point `wp`

@@ -17,27 +17,28 @@ const ROUGH_FROM = 0.3;
 const ROUGH_SPAN = 0.3;
 export const BAND_COUNT = 32;
 
-// The levels (half RGB, level k's rows above level k - 1's) as the slices of a half RGBA 3D
-// texture, each row with its last texel copied before its first and its first after its last, so
-// that one clamp-to-edge trilinear fetch wraps in longitude (as sky_texture.py's).
+// The levels (half RGB, level k's rows above level k - 1's) as one half RGBA 2D texture, each
+// level's rows with its last texel copied before its first and its first after its last, and its
+// first and last rows copied below and above it: one clamp-to-edge bilinear fetch per level then
+// wraps in longitude and clamps in latitude within its level (two 2D fetches cost less than one 3D
+// trilinear fetch in SwiftShader).
 function wrappedLevels(bytes, levels, width, height) {
   const rgb = new Uint16Array(bytes.buffer, bytes.byteOffset, levels * width * height * 3);
-  const padded = width + 2;
-  const out = new Uint16Array(levels * height * padded * 4);
-  for (let row = 0; row < levels * height; row++) {
-    for (let x = 0; x < padded; x++) {
-      const i = 3 * (row * width + ((x + width - 1) % width));
-      const o = 4 * (row * padded + x);
+  const [w, h] = [width + 2, height + 2];
+  const out = new Uint16Array(levels * h * w * 4);
+  for (let row = 0; row < levels * h; row++) {
+    const level = Math.floor(row / h);
+    const source = level * height + Math.min(Math.max((row % h) - 1, 0), height - 1);
+    for (let x = 0; x < w; x++) {
+      const i = 3 * (source * width + ((x + width - 1) % width));
+      const o = 4 * (row * w + x);
       out[o] = rgb[i];
       out[o + 1] = rgb[i + 1];
       out[o + 2] = rgb[i + 2];
       out[o + 3] = 0x3c00; // 1.0
     }
   }
-  const texture = new THREE.Data3DTexture(out, padded, height, levels);
-  texture.format = THREE.RGBAFormat;
-  texture.type = THREE.HalfFloatType;
-  return filtered(texture);
+  return filtered(new THREE.DataTexture(out, w, levels * h, THREE.RGBAFormat, THREE.HalfFloatType));
 }
 
 function filtered(texture) {
@@ -49,7 +50,7 @@ function filtered(texture) {
 }
 
 /** The file's specular data (the scene extras' `specular`, docs/export.md) as textures: the sky
- * levels (a 3D texture, wrappedLevels), the table (RG), the rows; null without. */
+ * levels (one 2D texture, wrappedLevels), the table (RG), the rows; null without. */
 export async function loadSpecular(parser, block) {
   if (!block || !block.sky || !block.brdf || !Array.isArray(block.sky_rows)) return null;
   const { levels, width, height } = block.sky;
@@ -121,7 +122,7 @@ export function specularVertex(source) {
 
 /** Fragment GLSL: the sky, the table, the lobe's albedo, the occlusion, the shading (spec_shade). */
 export const SPECULAR_FRAGMENT = `
-uniform highp sampler3D prtSkyTx;
+uniform sampler2D prtSkyTx;
 uniform sampler2D prtBrdfTx;
 uniform mat3 prtSkyRows;
 uniform vec3 prtSkySize;
@@ -140,12 +141,18 @@ vec3 spec_f0;
 vec2 spec_ab;
 
 vec3 skyRadiance(vec3 d, float roughness) {
-  // One trilinear fetch: bilinear in the level (x past the wrapped column), linear between levels.
+  // Bilinear in the two nearest levels (x past the wrapped column, y past the level's copied row), then linear between them.
   vec3 q = prtSkyRows * d;
   vec2 uv = vec2(-atan(q.y, q.x) / (2.0 * 3.14159265) + 0.5, atan(q.z, length(q.xy)) / 3.14159265 + 0.5);
   float x = (1.0 + uv.x * prtSkySize.y) / (prtSkySize.y + 2.0);
-  float z = (roughness * (prtSkySize.x - 1.0) + 0.5) / prtSkySize.x;
-  return texture(prtSkyTx, vec3(x, uv.y, z)).rgb;
+  float rows = prtSkySize.z + 2.0;
+  float y = 1.0 + uv.y * prtSkySize.z;
+  float level = roughness * (prtSkySize.x - 1.0);
+  float l0 = floor(level);
+  float l1 = min(l0 + 1.0, prtSkySize.x - 1.0);
+  vec3 a = texture(prtSkyTx, vec2(x, (l0 * rows + y) / (prtSkySize.x * rows))).rgb;
+  vec3 b = texture(prtSkyTx, vec2(x, (l1 * rows + y) / (prtSkySize.x * rows))).rgb;
+  return mix(a, b, level - l0);
 }
 
 vec2 brdfAB(float nv, float roughness) {
@@ -160,19 +167,19 @@ vec3 lobeAlbedo(vec3 f0) {
   return single + single * f_avg / (1.0 - e_ms * f_avg) * e_ms;
 }
 
+// The caps' shared solid angle (Mazonka 2012), the containment tests on cosines: shader_specular.py's CAP_GLSL.
 float capIntersection(float ca, float cb, float cg) {
   ca = clamp(ca, -1.0, 1.0);
   cb = clamp(cb, -1.0, 1.0);
   cg = clamp(cg, -1.0, 1.0);
-  float a = acos(ca);
-  float b = acos(cb);
-  float g = acos(cg);
+  float sa = sqrt(1.0 - ca * ca);
+  float sb = sqrt(1.0 - cb * cb);
+  float sg = max(sqrt(1.0 - cg * cg), 1e-6);
   float smaller = 2.0 * 3.14159265 * (1.0 - max(ca, cb));
-  if (g <= abs(a - b)) return smaller;
-  if (g >= a + b) return 0.0;
-  float sa = max(sin(a), 1e-6);
-  float sb = max(sin(b), 1e-6);
-  float sg = max(sin(g), 1e-6);
+  if (cg >= ca * cb + sa * sb) return smaller;
+  if (ca + cb >= 0.0 && cg <= ca * cb - sa * sb) return 0.0;
+  sa = max(sa, 1e-6);
+  sb = max(sb, 1e-6);
   float gap = acos(clamp((cg - ca * cb) / (sa * sb), -1.0, 1.0));
   float x = acos(clamp((cb - cg * ca) / (sg * sa), -1.0, 1.0));
   float y = acos(clamp((ca - cg * cb) / (sg * sb), -1.0, 1.0));

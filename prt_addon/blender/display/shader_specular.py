@@ -54,6 +54,35 @@ vec2 brdf_ab(float nv, float roughness)
 }
 """
 
+# The solid angle shared by two caps (Mazonka 2012) of half-angle cosines ca, cb whose axes make
+# cos g = cg, with the angles' sines as sqrt(1 - c^2) and the containment tests on cosines: g <= |a - b|
+# when cg >= cos(a - b) = ca cb + sa sb, g >= a + b when a + b <= pi (ca + cb >= 0) and
+# cg <= cos(a + b) = ca cb - sa sb; three acos in all (also compiled alone by its test).
+CAP_GLSL = """
+float cap_intersection(float ca, float cb, float cg)
+{
+  ca = clamp(ca, -1.0, 1.0);
+  cb = clamp(cb, -1.0, 1.0);
+  cg = clamp(cg, -1.0, 1.0);
+  float sa = sqrt(1.0 - ca * ca);
+  float sb = sqrt(1.0 - cb * cb);
+  float sg = max(sqrt(1.0 - cg * cg), 1e-6);
+  float smaller = 2.0 * 3.14159265 * (1.0 - max(ca, cb));
+  if (cg >= ca * cb + sa * sb) {
+    return smaller;
+  }
+  if (ca + cb >= 0.0 && cg <= ca * cb - sa * sb) {
+    return 0.0;
+  }
+  sa = max(sa, 1e-6);
+  sb = max(sb, 1e-6);
+  float gap = acos(clamp((cg - ca * cb) / (sa * sb), -1.0, 1.0));
+  float x = acos(clamp((cb - cg * ca) / (sg * sa), -1.0, 1.0));
+  float y = acos(clamp((ca - cg * cb) / (sg * sb), -1.0, 1.0));
+  return clamp(2.0 * (3.14159265 - gap - ca * x - cb * y), 0.0, smaller);
+}
+"""
+
 _FUNCTIONS = f"""
 vec3 spec_n;
 vec3 spec_v;
@@ -73,30 +102,7 @@ vec3 lobe_albedo(vec3 f0)
   return single + single * f_avg / (1.0 - e_ms * f_avg) * e_ms;
 }}
 
-float cap_intersection(float ca, float cb, float cg)
-{{
-  ca = clamp(ca, -1.0, 1.0);
-  cb = clamp(cb, -1.0, 1.0);
-  cg = clamp(cg, -1.0, 1.0);
-  float a = acos(ca);
-  float b = acos(cb);
-  float g = acos(cg);
-  float smaller = 2.0 * 3.14159265 * (1.0 - max(ca, cb));
-  if (g <= abs(a - b)) {{
-    return smaller;
-  }}
-  if (g >= a + b) {{
-    return 0.0;
-  }}
-  float sa = max(sin(a), 1e-6);
-  float sb = max(sin(b), 1e-6);
-  float sg = max(sin(g), 1e-6);
-  float gap = acos(clamp((cg - ca * cb) / (sa * sb), -1.0, 1.0));
-  float x = acos(clamp((cb - cg * ca) / (sg * sa), -1.0, 1.0));
-  float y = acos(clamp((ca - cg * cb) / (sg * sb), -1.0, 1.0));
-  return clamp(2.0 * (3.14159265 - gap - ca * x - cb * y), 0.0, smaller);
-}}
-
+{CAP_GLSL}
 float specular_occlusion()
 {{
   float ao = clamp(spec_vis.x / {Y0}, 0.0, 1.0);

@@ -1,4 +1,4 @@
-"""The specular's texture lookups on the GPU: the sky levels' trilinear fetch and the split-sum table's bilinear one, against numpy."""
+"""The specular's GLSL on the GPU against numpy: the sky levels' trilinear fetch, the split-sum table's bilinear one, the caps' intersection."""
 
 import numpy as np
 
@@ -21,14 +21,18 @@ def _lookup_shader():
     info.fragment_out(0, "VEC4", "FragColor")
     info.vertex_source("void main()\n{\n  gl_Position = vec4(pos, 0.0, 1.0);\n}\n")
     info.fragment_source(
-        shader_specular.LOOKUP_GLSL + "void main()\n{\n  vec4 q = texelFetch(query_tx, ivec2(gl_FragCoord.xy), 0);\n"
-        "  FragColor = mode == 0 ? vec4(sky_radiance(q.xyz, q.w), 1.0) : vec4(brdf_ab(q.x, q.y), 0.0, 1.0);\n}\n"
+        shader_specular.LOOKUP_GLSL
+        + shader_specular.CAP_GLSL
+        + "void main()\n{\n  vec4 q = texelFetch(query_tx, ivec2(gl_FragCoord.xy), 0);\n"
+        "  FragColor = mode == 0 ? vec4(sky_radiance(q.xyz, q.w), 1.0) : vec4(brdf_ab(q.x, q.y), 0.0, 1.0);\n"
+        "  FragColor = mode == 2 ? vec4(cap_intersection(q.x, q.y, q.z), 0.0, 0.0, 1.0) : FragColor;\n}\n"
     )
     return gpu.shader.create_from_info(info)
 
 
 def _draw(query, mode, sky, rows, table):
-    """(H, W, 4) of the shader run on each pixel's query (xyz w: direction and roughness, or nv, roughness)."""
+    """(H, W, 4) of the shader run on each pixel's query (xyz w: direction and roughness; or n.v,
+    roughness; or the caps' three cosines)."""
     import gpu
     from gpu_extras.batch import batch_for_shader
 
@@ -141,3 +145,23 @@ def test_table_fetch_matches_the_tables_bilinear(gpu_ready):
     high = table[b[:, 1], a[:, 0]] * (1 - f[:, :1]) + table[b[:, 1], b[:, 0]] * f[:, :1]
     expected = low * (1 - f[:, 1:]) + high * f[:, 1:]
     assert np.abs(got - expected).max() < 2e-3, np.abs(got - expected).max()
+
+
+def test_cap_intersection_matches_the_core(gpu_ready):
+    """The GLSL caps' intersection (its containment tests on cosines) gives core.specular.occlusion's
+    (on angles) for random caps and axes, nested, apart, overlapping and at the hemisphere (cos 0)."""
+    from prt_addon.blender.display import sky_texture
+    from prt_addon.core.specular import occlusion
+
+    rng = np.random.default_rng(11)
+    n = SIZE[0] * SIZE[1]
+    cosines = rng.uniform(-1.0, 1.0, size=(n, 3))
+    cosines[: n // 4, 0] = 0.0  # the open hemisphere, as the shader's first call
+    cosines[n // 4 : n // 2, 1] = rng.uniform(0.99, 1.0, size=n // 4)  # glossy lobes
+    query = np.concatenate([cosines, np.zeros((n, 1))], axis=1)
+    sky = sky_texture.levels_texture(np.zeros((2, 2, 4, 3)))
+    got = _draw(query, 2, sky, np.eye(3), sky_texture.brdf_texture())[..., 0].reshape(n)
+    expected = occlusion.cap_intersection(cosines[:, 0], cosines[:, 1], cosines[:, 2])
+    smaller = 2 * np.pi * (1 - np.maximum(cosines[:, 0], cosines[:, 1]))
+    assert ((expected > 0) & (expected < smaller)).mean() > 0.2  # (many partial overlaps)
+    assert np.abs(got - expected).max() < 5e-3, np.abs(got - expected).max()  # (6e-4 measured: float32 acos)
