@@ -14,7 +14,9 @@ before every frame with the lighting turned ("prt_relit_turning"), the same from
 vertex attributes (the plugin's transferSource 'packed', "prt_packed"), the relit one with the
 Principled specular ("prt_specular": the file's residual sky and split-sum table, the constants
 of Suzanne's Principled material, roughness 0.5, metallic 0; the demo is exported with the
-scene's Specular on; printed also against "prt_relit", the same frame diffuse only), with --lights the same with the file's
+scene's Specular on; printed also against "prt_relit", the same frame diffuse only), the same
+with the view turned a little before every frame ("prt_specular_moving": the occlusion pass,
+web/src/occlusion.js, runs in every frame), with --lights the same with the file's
 split lights and their shadow views (PCSS per pixel) and with them unshadowed, and MeshStandardMaterial (roughness 0.5) with the file's world as a PMREM
 environment. Ratios are of medians measured side by side in one run; absolute times are for
 this machine only.
@@ -136,12 +138,13 @@ def main():
         )
     # Each round draws every variant once, back to back: the ratio per round, then its median.
     standard = times["standard"]
-    names = ("prt", "prt_packed", "prt_relit", "prt_relit_turning", "prt_specular", "prt_lights")
+    names = ("prt", "prt_packed", "prt_relit", "prt_relit_turning", "prt_specular", "prt_specular_moving", "prt_lights")
     for name in (*names, "prt_lights_unshadowed"):
         if name in times:
             print_ratio(name, "MeshStandardMaterial", times[name], standard)
     if "prt_specular" in times:
         print_ratio("prt_specular", "prt_relit (diffuse only)", times["prt_specular"], times["prt_relit"])
+        print_ratio("prt_specular_moving", "prt_relit (diffuse only)", times["prt_specular_moving"], times["prt_relit"])
         change = setup["specularChange"]
         print(
             f"prt_specular differs from prt_relit by {change['mean']:.1f}/255 on average over {change['pixels']} pixels"

@@ -55,7 +55,12 @@ def test_the_plugin_draws_principled_specular_as_render_view(bpy_module, addon, 
         {"name": "diffuse", "glb": glb, "options": {"specular": False}},
     ]
     renders = [{"name": f["name"], "width": WIDTH, "height": HEIGHT} for f in files]
-    info, (glossy, diffuse) = _plugin_images(browser_tools, tmp_path, files, renders)
+    # Drawn first from another camera: the occlusion pass (drawn when the view moves) must follow
+    # the view back to the file's camera.
+    elsewhere = {"fov": 40, "position": [4.0, 3.0, 5.0], "target": [0.0, 0.0, 0.0]}
+    renders.insert(0, {"name": "specular", "width": WIDTH, "height": HEIGHT, "camera": elsewhere})
+    info, (moved, glossy, diffuse) = _plugin_images(browser_tools, tmp_path, files, renders)
+    assert np.abs(moved - glossy).max() > 0.1  # (another view)
     for f in files:
         said = info[f["name"]]["console"]
         assert info[f["name"]]["prt"] and not [m for m in said if m.startswith(("error", "pageerror"))], said

@@ -44,3 +44,23 @@ def test_levels_preserve_power_and_turn_with_the_image():
     turned = sky_prefilter.sky_levels(np.roll(img, 32, axis=1), width=64)
     assert np.allclose(turned, np.roll(levels, 16, axis=2), atol=1e-9)
     assert levels[-1].std() < 0.2 * levels[0].std()  # the roughest level is blurred
+
+
+def test_wrapped_columns_make_a_clamped_lookup_wrap():
+    """A clamp-to-edge linear lookup of the wrapped rows at x = (1 + u W) / (W + 2) gives the
+    periodic linear interpolation of the row at u, across the seam too."""
+    rng = np.random.default_rng(5)
+    levels = rng.uniform(size=(2, 3, 8, 3))
+    padded = sky_prefilter.wrapped_columns(levels)
+    assert padded.shape == (2, 3, 10, 3)
+    w = levels.shape[2]
+    for u in (0.0, 0.01, 0.5, 0.99, 1.0):
+        p = u * w - 0.5  # the row's own texel coordinate, wrapped
+        i0 = int(np.floor(p))
+        f = p - i0
+        periodic = levels[:, :, i0 % w] * (1 - f) + levels[:, :, (i0 + 1) % w] * f
+        x = (1 + u * w) / (w + 2) * (w + 2) - 0.5  # the padded row's texel coordinate
+        j0 = int(np.clip(np.floor(x), 0, w + 1))
+        g = x - j0
+        clamped = padded[:, :, j0] * (1 - g) + padded[:, :, min(j0 + 1, w + 1)] * g
+        assert np.allclose(clamped, periodic, atol=1e-12), u

@@ -13,6 +13,8 @@ import { MAX_SUNS, ShadowMaps, fileViews } from './shadows.js';
 import { rotationRows, turned } from './rotation_input.js';
 import { backgroundMesh } from './background.js';
 import { Relight } from './relight.js';
+import { OcclusionPass } from './occlusion.js';
+import { BAND_COUNT } from './specular.js';
 
 // Blender's display draws a primitive without a material with its default grey (albedo.py).
 export const DEFAULT_ALBEDO = [0.8, 0.8, 0.8];
@@ -95,6 +97,12 @@ export class PRTLighting {
           ? new Relight(source, material, spec.channels)
           : null;
       if (relight) material.uniforms.prtRadianceTx.value = relight.texture;
+      // The full transfer's specular occlusion per vertex, drawn when the view or the node moves.
+      const occlusion =
+        glossy && source.kind === 'texture'
+          ? new OcclusionPass(object.geometry, source, material, Math.min(spec.order, BAND_COUNT))
+          : null;
+      if (occlusion) material.uniforms.prtOcclusionTx.value = occlusion.texture;
       object.userData.prtOriginalMaterial = object.material;
       object.material = material;
       const entry = {
@@ -106,8 +114,9 @@ export class PRTLighting {
         channels: spec.channels,
         frame: null,
         relight,
+        occlusion,
       };
-      object.onBeforeRender = (renderer) => this.beforeRender(renderer, entry);
+      object.onBeforeRender = (renderer, _scene, camera) => this.beforeRender(renderer, entry, camera);
       return entry;
     });
     this.shadows = this.views.length ? new ShadowMaps(casters, this.views) : null;
@@ -167,11 +176,12 @@ export class PRTLighting {
     for (const entry of this.baked) this.beforeRender(renderer, entry);
   }
 
-  beforeRender(renderer, entry) {
+  beforeRender(renderer, entry, camera = null) {
     const map = entry.material.uniforms.prtMap;
     if (map && map.value.matrixAutoUpdate) map.value.updateMatrix(); // (its offset, repeat, rotation)
     this.updateMesh(entry);
     if (entry.relight && entry.relight.dirty) entry.relight.run(renderer);
+    if (entry.occlusion && camera) entry.occlusion.update(renderer, camera, entry.object);
     this.updateShadows(renderer);
   }
 
@@ -255,12 +265,13 @@ export class PRTLighting {
 
   /** The GPU resources; the meshes get their original materials back. */
   dispose() {
-    for (const { object, material, source, relight } of this.baked) {
+    for (const { object, material, source, relight, occlusion } of this.baked) {
       object.material = object.userData.prtOriginalMaterial;
       object.onBeforeRender = () => {};
       material.dispose();
       source.dispose();
       if (relight) relight.dispose();
+      if (occlusion) occlusion.dispose();
     }
     if (this.shadows) this.shadows.dispose();
   }

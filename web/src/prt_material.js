@@ -125,7 +125,7 @@ function surfaceFragment(surface) {
 
 const VERTEX = (count, views, channels, source, surface, glossy) => `
 ${source.glsl}
-${glossy ? specularVertex(source, glossy.order, surface.paired) : ''}
+${glossy ? specularVertex(source, surface.paired) : ''}
 ${source.stage === 'texel' ? `attribute vec2 ${source.uvAttribute};\nvarying vec2 prtUv;` : ''}
 ${surfaceVertex(surface, source)}
 ${source.radianceVertex ? 'uniform sampler2D prtRadianceTx;' : ''}

@@ -6,7 +6,8 @@
 // frame: looked up at rows * d, rows the file's glTF -> image rows times the lighting turn's
 // inverse) at Frostbite's dominant direction, E_spec the multiple-scattering albedo from the
 // split-sum table, occ the specular occlusion from the transfer (the cones of bands 0 and 1 below
-// roughness 0.3, the lobe-weighted visibility of the full transfer above 0.6, per vertex), the
+// roughness 0.3, the lobe-weighted visibility of the full transfer above 0.6, per vertex:
+// occlusion.js), the
 // split lights' GGX at the representative point of each view's disc with its shadow map's
 // visibility, each view weighted by its share of its light's power.
 import * as THREE from 'three';
@@ -16,28 +17,40 @@ const ROUGH_FROM = 0.3;
 const ROUGH_SPAN = 0.3;
 export const BAND_COUNT = 32;
 
-function halfRgbToRgba(bytes, texels) {
-  const rgb = new Uint16Array(bytes.buffer, bytes.byteOffset, texels * 3);
-  const out = new Uint16Array(texels * 4);
-  for (let i = 0; i < texels; i++) {
-    out[4 * i] = rgb[3 * i];
-    out[4 * i + 1] = rgb[3 * i + 1];
-    out[4 * i + 2] = rgb[3 * i + 2];
-    out[4 * i + 3] = 0x3c00; // 1.0
+// The levels (half RGB, level k's rows above level k - 1's) as one half RGBA 2D texture, each
+// level's rows with its last texel copied before its first and its first after its last, and its
+// first and last rows copied below and above it: one clamp-to-edge bilinear fetch per level then
+// wraps in longitude and clamps in latitude within its level (two 2D fetches cost less than one 3D
+// trilinear fetch in SwiftShader).
+function wrappedLevels(bytes, levels, width, height) {
+  const rgb = new Uint16Array(bytes.buffer, bytes.byteOffset, levels * width * height * 3);
+  const [w, h] = [width + 2, height + 2];
+  const out = new Uint16Array(levels * h * w * 4);
+  for (let row = 0; row < levels * h; row++) {
+    const level = Math.floor(row / h);
+    const source = level * height + Math.min(Math.max((row % h) - 1, 0), height - 1);
+    for (let x = 0; x < w; x++) {
+      const i = 3 * (source * width + ((x + width - 1) % width));
+      const o = 4 * (row * w + x);
+      out[o] = rgb[i];
+      out[o + 1] = rgb[i + 1];
+      out[o + 2] = rgb[i + 2];
+      out[o + 3] = 0x3c00; // 1.0
+    }
   }
-  return out;
+  return filtered(new THREE.DataTexture(out, w, levels * h, THREE.RGBAFormat, THREE.HalfFloatType));
 }
 
-function dataTexture(data, width, height, type) {
-  const texture = new THREE.DataTexture(data, width, height, THREE.RGBAFormat, type);
-  texture.minFilter = texture.magFilter = THREE.NearestFilter;
+function filtered(texture) {
+  texture.minFilter = texture.magFilter = THREE.LinearFilter;
   texture.generateMipmaps = false;
+  texture.unpackAlignment = 1;
   texture.needsUpdate = true;
   return texture;
 }
 
 /** The file's specular data (the scene extras' `specular`, docs/export.md) as textures: the sky
- * levels stacked (level k's rows above level k - 1's), the table (RG), the rows; null without. */
+ * levels (one 2D texture, wrappedLevels), the table (RG), the rows; null without. */
 export async function loadSpecular(parser, block) {
   if (!block || !block.sky || !block.brdf || !Array.isArray(block.sky_rows)) return null;
   const { levels, width, height } = block.sky;
@@ -47,15 +60,16 @@ export async function loadSpecular(parser, block) {
   if (sky.byteLength < texels * 6) throw new Error('the specular sky is truncated');
   const size = block.brdf.size;
   if (table.byteLength < size * size * 8) throw new Error('the split-sum table is truncated');
+  // The table as half floats: WebGL2 filters those everywhere (32-bit floats need an extension).
   const rg = new Float32Array(table.slice(0, size * size * 8));
-  const rgba = new Float32Array(size * size * 4);
+  const rgba = new Uint16Array(size * size * 4);
   for (let i = 0; i < size * size; i++) {
-    rgba[4 * i] = rg[2 * i];
-    rgba[4 * i + 1] = rg[2 * i + 1];
+    rgba[4 * i] = THREE.DataUtils.toHalfFloat(rg[2 * i]);
+    rgba[4 * i + 1] = THREE.DataUtils.toHalfFloat(rg[2 * i + 1]);
   }
   return {
-    sky: dataTexture(halfRgbToRgba(new Uint8Array(sky), texels), width, levels * height, THREE.HalfFloatType),
-    table: dataTexture(rgba, size, size, THREE.FloatType),
+    sky: wrappedLevels(new Uint8Array(sky), levels, width, height),
+    table: filtered(new THREE.DataTexture(rgba, size, size, THREE.RGBAFormat, THREE.HalfFloatType)),
     levels,
     width,
     height,
@@ -91,98 +105,40 @@ export function readMaterial(extras) {
 }
 
 /** Vertex GLSL: the first transfer vec4 (bands 0 and 1) and the full transfer's occlusion at the
- * vertex's reflection direction (the real SH basis by its recurrences, as shader_specular's
- * occlusion_lines); a source without decoded values at the vertex (packed, texel) is open. */
-export function specularVertex(source, order, paired = false) {
-  if (paired) return pairedLobes(specularVertex(source, order));
+ * vertex's reflection direction, read from the occlusion pass's texture (occlusion.js) at the
+ * vertex; a source without decoded values at the vertex (packed, texel) is open. `paired`: the
+ * second lobe's occlusion too (prtSpecOcc2, the texture's second channel), as Blender's
+ * display/material_maps.py: the two are mixed per pixel by the roughness between the image's range. */
+export function specularVertex(source, paired = false) {
   const decoded = source.kind === 'texture';
   const lines = [
     'uniform mat3 nrmMatrix;',
-    'uniform mat3 prtFrame;',
-    'uniform vec4 prtBands[8];',
-    'uniform vec4 prtOpen[8];',
+    decoded ? 'uniform sampler2D prtOcclusionTx;' : '',
     'varying vec3 prtSpecPos;',
     'varying vec3 prtSpecNrm;',
     'varying vec4 prtSpecVis;',
     'varying float prtSpecOcc;',
+    paired ? 'varying float prtSpecOcc2;' : '',
     'void prtSpecularVertex(vec3 wp) {',
     '  prtSpecPos = wp;',
     '  prtSpecNrm = nrmMatrix * normal;',
   ];
-  if (!decoded) {
-    lines.push(`  prtSpecVis = vec4(${Y0}, 0.0, 0.0, 0.0);`, '  prtSpecOcc = 1.0;', '}');
-    return lines.join('\n');
-  }
-  const n = Math.min(order, BAND_COUNT);
-  const vec4s = Math.ceil((n * n) / 4);
-  for (let k = 0; k < vec4s; k++) lines.push(`  vec4 q${k} = ${source.fetch(k)};`);
-  const coeff = (i) => `q${i >> 2}[${i & 3}]`;
-  const band = (l) => `prtBands[${l >> 2}][${l & 3}]`;
-  lines.push(
-    '  prtSpecVis = q0;',
-    '  vec3 sn = normalize(prtSpecNrm);',
-    '  vec3 sv = isOrthographic ? vec3(viewMatrix[0][2], viewMatrix[1][2], viewMatrix[2][2]) : normalize(cameraPosition - wp);',
-    '  vec3 sr = reflect(-sv, sn);',
-    '  vec3 d = transpose(prtFrame) * sr;',
-    '  float seen = 0.0;',
-    '  float c0 = 1.0;',
-    '  float s0 = 0.0;',
-  );
-  let factorial = 1;
-  for (let m = 0; m < n; m++) {
-    if (m > 0) {
-      lines.push(`  float c${m} = d.x * c${m - 1} - d.y * s${m - 1};`);
-      lines.push(`  float s${m} = d.x * s${m - 1} + d.y * c${m - 1};`);
-      factorial *= 2 * m - 1;
-    }
-    for (let l = m; l < n; l++) {
-      let q;
-      if (l === m) q = `${factorial.toFixed(1)}`;
-      else if (l === m + 1) q = `${2 * m + 1}.0 * d.z * Q${l - 1}_${m}`;
-      else q = `(${2 * l - 1}.0 * d.z * Q${l - 1}_${m} - ${l + m - 1}.0 * Q${l - 2}_${m}) / ${l - m}.0`;
-      lines.push(`  float Q${l}_${m} = ${q};`);
-      let ratio = 1;
-      for (let j = l - m + 1; j <= l + m; j++) ratio *= j;
-      let k = Math.sqrt((2 * l + 1) / (4 * Math.PI) / ratio);
-      if (m === 0) lines.push(`  seen += ${band(l)} * ${coeff(l * l + l)} * (${k.toExponential(16)} * Q${l}_0);`);
-      else {
-        k *= Math.SQRT2;
-        lines.push(
-          `  seen += ${band(l)} * (${k.toExponential(16)} * Q${l}_${m}) * (${coeff(l * l + l + m)} * c${m} + ${coeff(l * l + l - m)} * s${m});`,
-        );
-      }
-    }
-  }
-  lines.push('  float mu = dot(sn, sr);', '  float p0 = 1.0;', '  float p1 = mu;');
-  const terms = ['prtOpen[0][0]'];
-  if (n > 1) terms.push('prtOpen[0][1] * mu');
-  for (let l = 2; l < n; l++) {
-    lines.push(`  float p${l} = (${2 * l - 1}.0 * mu * p${l - 1} - ${l - 1}.0 * p${l - 2}) / ${l}.0;`);
-    terms.push(`prtOpen[${l >> 2}][${l & 3}] * p${l}`);
-  }
-  lines.push(`  float open_ = ${terms.join(' + ')};`, '  prtSpecOcc = open_ > 1e-8 ? seen / open_ : 1.0;', '}');
+  if (!decoded)
+    lines.push(
+      `  prtSpecVis = vec4(${Y0}, 0.0, 0.0, 0.0);`,
+      '  prtSpecOcc = 1.0;',
+      paired ? '  prtSpecOcc2 = 1.0;' : '',
+      '}',
+    );
+  else
+    lines.push(
+      `  prtSpecVis = ${source.fetch(0)};`,
+      '  vec4 occlusion = texelFetch(prtOcclusionTx, ivec2(gl_VertexID % prtPerRow, gl_VertexID / prtPerRow), 0);',
+      '  prtSpecOcc = occlusion.r;',
+      paired ? '  prtSpecOcc2 = occlusion.g;' : '',
+      '}',
+    );
   return lines.join('\n');
-}
-
-// The occlusion also for the second lobe (prtBands2, prtOpen2) into prtSpecOcc2, as Blender's
-// display/material_maps.py: the two are mixed per pixel by the roughness between the image's range.
-function pairedLobes(glsl) {
-  const out = ['uniform vec4 prtBands2[8];', 'uniform vec4 prtOpen2[8];', 'varying float prtSpecOcc2;'];
-  for (const line of glsl.split('\n')) {
-    out.push(line);
-    if (line.startsWith('  seen += ') || line.startsWith('  float open_ = '))
-      out.push(
-        line
-          .replace('seen +=', 'seen2 +=')
-          .replace('open_ =', 'open2 =')
-          .replace(/prtBands\[/g, 'prtBands2[')
-          .replace(/prtOpen\[/g, 'prtOpen2['),
-      );
-    else if (line === '  float seen = 0.0;') out.push('  float seen2 = 0.0;');
-    else if (line.startsWith('  prtSpecOcc = '))
-      out.push(line.includes('seen') ? '  prtSpecOcc2 = open2 > 1e-8 ? seen2 / open2 : 1.0;' : '  prtSpecOcc2 = 1.0;');
-  }
-  return out.join('\n');
 }
 
 /** SPECULAR_FRAGMENT with the roughness and metallic per pixel (prtRoughness, prtMetallic, set
@@ -220,42 +176,23 @@ float spec_alpha;
 vec3 spec_f0;
 vec2 spec_ab;
 
-vec3 skyTexel(int x, int y) {
-  return texelFetch(prtSkyTx, ivec2(x, y), 0).rgb;
-}
-
-vec3 skyLevel(int level, vec2 uv) {
-  int w = int(prtSkySize.y);
-  int h = int(prtSkySize.z);
-  vec2 p = uv * vec2(float(w), float(h)) - 0.5;
-  p.y = clamp(p.y, 0.0, float(h - 1));
-  ivec2 a = ivec2(floor(p));
-  vec2 f = p - vec2(a);
-  int x0 = (a.x % w + w) % w;
-  int x1 = (x0 + 1) % w;
-  int y0 = level * h + a.y;
-  int y1 = level * h + min(a.y + 1, h - 1);
-  return mix(mix(skyTexel(x0, y0), skyTexel(x1, y0), f.x), mix(skyTexel(x0, y1), skyTexel(x1, y1), f.x), f.y);
-}
-
 vec3 skyRadiance(vec3 d, float roughness) {
+  // Bilinear in the two nearest levels (x past the wrapped column, y past the level's copied row), then linear between them.
   vec3 q = prtSkyRows * d;
   vec2 uv = vec2(-atan(q.y, q.x) / (2.0 * 3.14159265) + 0.5, atan(q.z, length(q.xy)) / 3.14159265 + 0.5);
+  float x = (1.0 + uv.x * prtSkySize.y) / (prtSkySize.y + 2.0);
+  float rows = prtSkySize.z + 2.0;
+  float y = 1.0 + uv.y * prtSkySize.z;
   float level = roughness * (prtSkySize.x - 1.0);
-  int l0 = int(floor(level));
-  int l1 = min(l0 + 1, int(prtSkySize.x) - 1);
-  return mix(skyLevel(l0, uv), skyLevel(l1, uv), level - float(l0));
+  float l0 = floor(level);
+  float l1 = min(l0 + 1.0, prtSkySize.x - 1.0);
+  vec3 a = texture(prtSkyTx, vec2(x, (l0 * rows + y) / (prtSkySize.x * rows))).rgb;
+  vec3 b = texture(prtSkyTx, vec2(x, (l1 * rows + y) / (prtSkySize.x * rows))).rgb;
+  return mix(a, b, level - l0);
 }
 
 vec2 brdfAB(float nv, float roughness) {
-  vec2 size = vec2(textureSize(prtBrdfTx, 0));
-  vec2 p = clamp(vec2(nv, roughness) * size - 0.5, vec2(0.0), size - 1.0);
-  ivec2 a = ivec2(floor(p));
-  ivec2 b = min(a + 1, ivec2(size) - 1);
-  vec2 f = p - vec2(a);
-  vec2 low = mix(texelFetch(prtBrdfTx, a, 0).rg, texelFetch(prtBrdfTx, ivec2(b.x, a.y), 0).rg, f.x);
-  vec2 high = mix(texelFetch(prtBrdfTx, ivec2(a.x, b.y), 0).rg, texelFetch(prtBrdfTx, b, 0).rg, f.x);
-  return mix(low, high, f.y);
+  return texture(prtBrdfTx, vec2(nv, roughness)).rg; // (bilinear, clamped to the edge)
 }
 
 vec3 lobeAlbedo(vec3 f0) {
@@ -266,19 +203,19 @@ vec3 lobeAlbedo(vec3 f0) {
   return single + single * f_avg / (1.0 - e_ms * f_avg) * e_ms;
 }
 
+// The caps' shared solid angle (Mazonka 2012), the containment tests on cosines: shader_specular.py's CAP_GLSL.
 float capIntersection(float ca, float cb, float cg) {
   ca = clamp(ca, -1.0, 1.0);
   cb = clamp(cb, -1.0, 1.0);
   cg = clamp(cg, -1.0, 1.0);
-  float a = acos(ca);
-  float b = acos(cb);
-  float g = acos(cg);
+  float sa = sqrt(1.0 - ca * ca);
+  float sb = sqrt(1.0 - cb * cb);
+  float sg = max(sqrt(1.0 - cg * cg), 1e-6);
   float smaller = 2.0 * 3.14159265 * (1.0 - max(ca, cb));
-  if (g <= abs(a - b)) return smaller;
-  if (g >= a + b) return 0.0;
-  float sa = max(sin(a), 1e-6);
-  float sb = max(sin(b), 1e-6);
-  float sg = max(sin(g), 1e-6);
+  if (cg >= ca * cb + sa * sb) return smaller;
+  if (ca + cb >= 0.0 && cg <= ca * cb - sa * sb) return 0.0;
+  sa = max(sa, 1e-6);
+  sb = max(sb, 1e-6);
   float gap = acos(clamp((cg - ca * cb) / (sa * sb), -1.0, 1.0));
   float x = acos(clamp((cb - cg * ca) / (sg * sa), -1.0, 1.0));
   float y = acos(clamp((ca - cg * cb) / (sg * sb), -1.0, 1.0));
@@ -362,5 +299,6 @@ export function specularUniforms(shared, surface) {
           prtRoughRange: { value: surface.range },
         }
       : {}),
+    prtOcclusionTx: { value: null }, // (occlusion.js's texture, for a source decoded at the vertex)
   };
 }

@@ -8,7 +8,8 @@
 // the plugin's default: a vertex reads one vec4 a frame), 'prt_relit_turning' (the same with the
 // lighting turned before every frame: the relight pass and the frame), 'prt_specular' (relit, with
 // the Principled specular: the file's sky and table, its first Principled material's constants;
-// when the file has them), with `lights` also 'prt_lights' (the file's split lights
+// when the file has them), 'prt_specular_moving' (the same with the view turned a little before
+// every frame, so that its occlusion pass runs in every frame), with `lights` also 'prt_lights' (the file's split lights
 // and shadow views) and 'prt_lights_unshadowed' (their cosine terms only), and 'standard'
 // (MeshStandardMaterial, white, roughness 0.5, lit by the file's world as a PMREM environment);
 // frames(k) draws each in turn k times, each frame finished by reading one pixel back, and
@@ -128,7 +129,7 @@ async function setup(triangles, withLights, order = 8) {
     ['prt_relit_turning', []],
   ];
   const glossy = Boolean(state.specular && state.constants);
-  if (glossy) kinds.push(['prt_specular', []]);
+  if (glossy) kinds.push(['prt_specular', []], ['prt_specular_moving', []]);
   if (withLights) kinds.push(['prt_lights', file.lights], ['prt_lights_unshadowed', file.lights]);
   const packed = packedTransferSource(geometry, spec);
   const texture = geometryTransferSource(geometry, spec, renderer.capabilities.maxTextureSize);
@@ -137,7 +138,7 @@ async function setup(triangles, withLights, order = 8) {
     const source =
       name === 'prt_packed'
         ? packed
-        : name.startsWith('prt_relit') || name === 'prt_specular'
+        : name.startsWith('prt_relit') || name.startsWith('prt_specular')
           ? relitTransferSource(texture)
           : texture;
     const lighting = readLighting({ ...file, lights });
@@ -150,12 +151,12 @@ async function setup(triangles, withLights, order = 8) {
           spec,
           albedo: [0.8, 0.8, 0.8],
           side: THREE.FrontSide,
-          constants: name === 'prt_specular' ? state.constants : null,
+          constants: name.startsWith('prt_specular') ? state.constants : null,
         },
       ],
       casters: [mesh],
       exposure: 0,
-      specular: name === 'prt_specular' ? state.specular : null,
+      specular: name.startsWith('prt_specular') ? state.specular : null,
     });
     const scene = new THREE.Scene();
     scene.add(mesh);
@@ -175,6 +176,7 @@ async function setup(triangles, withLights, order = 8) {
   variants.standard = { scene: standard };
   state.variants = variants;
   state.camera = camera;
+  state.moving = camera.clone();
   const prepare = {};
   const images = {};
   for (const [name, { scene }] of Object.entries(variants)) {
@@ -210,7 +212,15 @@ function frames(rounds) {
     for (const [name, { scene, prt }] of Object.entries(state.variants)) {
       const started = performance.now();
       if (name === 'prt_relit_turning') prt.setLightingRotation(new THREE.Euler(0, 0.01 * (i + 1), 0));
-      renderer.render(scene, state.camera);
+      let camera = state.camera;
+      if (name === 'prt_specular_moving') {
+        // The view turned a little about the knot before every frame: the occlusion pass runs each time.
+        camera = state.moving;
+        camera.position.copy(state.camera.position).applyAxisAngle(new THREE.Vector3(0, 1, 0), 0.01 * (i + 1));
+        camera.lookAt(0, 0, 0);
+        camera.updateMatrixWorld();
+      }
+      renderer.render(scene, camera);
       finish();
       times[name].push(performance.now() - started);
     }

@@ -9,7 +9,8 @@ material. Per pixel (docs/specular.md):
 with E_spec the multiple-scattering albedo of the lobe (core.specular.brdf, Fdez-Aguera 2019;
 metallic mixes a conductor of F0 = base colour with the dielectric of the IOR's F0), k_d =
 (1 - metallic) (1 - E_spec,dielectric), S_env the sky level at the roughness (sky_texture,
-looked up at Q^T of Frostbite's dominant direction, linear between the two nearest levels),
+looked up at Q^T of Frostbite's dominant direction, linear between the two nearest levels: one
+trilinear fetch of sky_texture's 3D texture),
 occ the cones' occlusion of core.specular.occlusion from the transfer's bands 0 and 1 (per
 vertex), and for each split light's shadow view its GGX at Karis's representative point of its
 disc with the widened alpha' = min(1, alpha + angle / 2) and the (alpha / alpha')^2 normalisation,
@@ -35,6 +36,53 @@ UBO_SOURCE = (
     "vec4 material; vec4 bands[8]; };\n"
 )
 
+# The sky's and the table's lookups (also compiled alone by their test): spec.sky (rows), spec.params.
+LOOKUP_GLSL = """
+vec3 sky_radiance(vec3 d, float roughness)
+{
+  // One trilinear fetch: bilinear in the level (x past the wrapped column), linear between levels.
+  vec3 q = vec3(dot(spec.sky[0].xyz, d), dot(spec.sky[1].xyz, d), dot(spec.sky[2].xyz, d));
+  vec2 uv = vec2(-atan(q.y, q.x) / (2.0 * 3.14159265) + 0.5, atan(q.z, length(q.xy)) / 3.14159265 + 0.5);
+  float x = (1.0 + uv.x * spec.params.y) / (spec.params.y + 2.0);
+  float z = (roughness * (spec.params.x - 1.0) + 0.5) / spec.params.x;
+  return texture(sky_tx, vec3(x, uv.y, z)).rgb;
+}
+
+vec2 brdf_ab(float nv, float roughness)
+{
+  return texture(brdf_tx, vec2(nv, roughness)).rg;  // (bilinear, clamped to the edge)
+}
+"""
+
+# The solid angle shared by two caps (Mazonka 2012) of half-angle cosines ca, cb whose axes make
+# cos g = cg, with the angles' sines as sqrt(1 - c^2) and the containment tests on cosines: g <= |a - b|
+# when cg >= cos(a - b) = ca cb + sa sb, g >= a + b when a + b <= pi (ca + cb >= 0) and
+# cg <= cos(a + b) = ca cb - sa sb; three acos in all (also compiled alone by its test).
+CAP_GLSL = """
+float cap_intersection(float ca, float cb, float cg)
+{
+  ca = clamp(ca, -1.0, 1.0);
+  cb = clamp(cb, -1.0, 1.0);
+  cg = clamp(cg, -1.0, 1.0);
+  float sa = sqrt(1.0 - ca * ca);
+  float sb = sqrt(1.0 - cb * cb);
+  float sg = max(sqrt(1.0 - cg * cg), 1e-6);
+  float smaller = 2.0 * 3.14159265 * (1.0 - max(ca, cb));
+  if (cg >= ca * cb + sa * sb) {
+    return smaller;
+  }
+  if (ca + cb >= 0.0 && cg <= ca * cb - sa * sb) {
+    return 0.0;
+  }
+  sa = max(sa, 1e-6);
+  sb = max(sb, 1e-6);
+  float gap = acos(clamp((cg - ca * cb) / (sa * sb), -1.0, 1.0));
+  float x = acos(clamp((cb - cg * ca) / (sg * sa), -1.0, 1.0));
+  float y = acos(clamp((ca - cg * cb) / (sg * sb), -1.0, 1.0));
+  return clamp(2.0 * (3.14159265 - gap - ca * x - cb * y), 0.0, smaller);
+}
+"""
+
 _FUNCTIONS = f"""
 vec3 spec_n;
 vec3 spec_v;
@@ -44,48 +92,7 @@ float spec_alpha;
 vec3 spec_f0;
 vec2 spec_ab;
 
-vec3 sky_texel(int x, int y)
-{{
-  return texelFetch(sky_tx, ivec2(x, y), 0).rgb;
-}}
-
-vec3 sky_level(int level, vec2 uv)
-{{
-  int w = int(spec.params.y);
-  int h = int(spec.params.z);
-  vec2 p = uv * vec2(float(w), float(h)) - 0.5;
-  p.y = clamp(p.y, 0.0, float(h - 1));
-  ivec2 a = ivec2(floor(p));
-  vec2 f = p - vec2(a);
-  int x0 = (a.x % w + w) % w;
-  int x1 = (x0 + 1) % w;
-  int y0 = level * h + a.y;
-  int y1 = level * h + min(a.y + 1, h - 1);
-  return mix(mix(sky_texel(x0, y0), sky_texel(x1, y0), f.x), mix(sky_texel(x0, y1), sky_texel(x1, y1), f.x), f.y);
-}}
-
-vec3 sky_radiance(vec3 d, float roughness)
-{{
-  vec3 q = vec3(dot(spec.sky[0].xyz, d), dot(spec.sky[1].xyz, d), dot(spec.sky[2].xyz, d));
-  vec2 uv = vec2(-atan(q.y, q.x) / (2.0 * 3.14159265) + 0.5, atan(q.z, length(q.xy)) / 3.14159265 + 0.5);
-  float level = roughness * (spec.params.x - 1.0);
-  int l0 = int(floor(level));
-  int l1 = min(l0 + 1, int(spec.params.x) - 1);
-  return mix(sky_level(l0, uv), sky_level(l1, uv), level - float(l0));
-}}
-
-vec2 brdf_ab(float nv, float roughness)
-{{
-  vec2 size = vec2(textureSize(brdf_tx, 0));
-  vec2 p = clamp(vec2(nv, roughness) * size - 0.5, vec2(0.0), size - 1.0);
-  ivec2 a = ivec2(floor(p));
-  ivec2 b = min(a + 1, ivec2(size) - 1);
-  vec2 f = p - vec2(a);
-  vec2 low = mix(texelFetch(brdf_tx, a, 0).rg, texelFetch(brdf_tx, ivec2(b.x, a.y), 0).rg, f.x);
-  vec2 high = mix(texelFetch(brdf_tx, ivec2(a.x, b.y), 0).rg, texelFetch(brdf_tx, b, 0).rg, f.x);
-  return mix(low, high, f.y);
-}}
-
+{LOOKUP_GLSL}
 vec3 lobe_albedo(vec3 f0)
 {{
   // Fdez-Aguera 2019: single scattering plus the compensated multiple scattering.
@@ -95,30 +102,7 @@ vec3 lobe_albedo(vec3 f0)
   return single + single * f_avg / (1.0 - e_ms * f_avg) * e_ms;
 }}
 
-float cap_intersection(float ca, float cb, float cg)
-{{
-  ca = clamp(ca, -1.0, 1.0);
-  cb = clamp(cb, -1.0, 1.0);
-  cg = clamp(cg, -1.0, 1.0);
-  float a = acos(ca);
-  float b = acos(cb);
-  float g = acos(cg);
-  float smaller = 2.0 * 3.14159265 * (1.0 - max(ca, cb));
-  if (g <= abs(a - b)) {{
-    return smaller;
-  }}
-  if (g >= a + b) {{
-    return 0.0;
-  }}
-  float sa = max(sin(a), 1e-6);
-  float sb = max(sin(b), 1e-6);
-  float sg = max(sin(g), 1e-6);
-  float gap = acos(clamp((cg - ca * cb) / (sa * sb), -1.0, 1.0));
-  float x = acos(clamp((cb - cg * ca) / (sg * sa), -1.0, 1.0));
-  float y = acos(clamp((ca - cg * cb) / (sg * sb), -1.0, 1.0));
-  return clamp(2.0 * (3.14159265 - gap - ca * x - cb * y), 0.0, smaller);
-}}
-
+{CAP_GLSL}
 float specular_occlusion()
 {{
   float ao = clamp(spec_vis.x / {Y0}, 0.0, 1.0);
@@ -277,7 +261,7 @@ def add_specular(info, vertex, fragment, mode, nrm_index, has_suns, count=1):
     """Declare the specular inputs on `info`; -> (vertex, fragment) sources. nrm_index: the
     attribute slot of prt_nrm (declared here unless the suns declared it)."""
     info.uniform_buf(2, "PRTSpec", "spec")
-    info.sampler(SKY_SLOT, "FLOAT_2D", "sky_tx")
+    info.sampler(SKY_SLOT, "FLOAT_3D", "sky_tx")
     info.sampler(BRDF_SLOT, "FLOAT_2D", "brdf_tx")
     if not has_suns:
         info.vertex_in(nrm_index, "VEC3", "prt_nrm")

@@ -4,8 +4,10 @@ The world is prefiltered once per projection (core.ibl.sky_prefilter), unrotated
 turns its lookup direction by the lighting rotation's matrix (world radiance at w is the image's
 at Q^T w, world.projection's Q), so turning the lighting costs nothing. With the light split,
 the levels hold the residual sky (the lights are drawn analytically, shader_specular), as the
-SH light does. The levels are one RGBA16F texture, level k's rows stacked above level k - 1's,
-read by texelFetch with bilinear weights in the shader (Python's textures have no filtering).
+SH light does. The levels are the slices of one RGBA16F 3D texture, each with one wrapped column
+on either side (core.ibl.sky_prefilter.wrapped_columns): the GPU's own trilinear filter (the
+Python module's float textures filter linearly and clamp to the edge) then does the bilinear
+lookup in a level, its longitude wrap and the blend between the two nearest levels in one fetch.
 """
 
 import time
@@ -32,7 +34,7 @@ class SkyTexture:
 
     @property
     def nbytes(self):
-        return self.levels * self.height * self.width * 8  # RGBA16F
+        return self.levels * self.height * (self.width + 2) * 8  # RGBA16F, the wrapped columns included
 
 
 @caches.on_clear
@@ -75,14 +77,20 @@ def sky_texture(scene):
     start = time.perf_counter()
     pixels, colour = _sky_pixels(scene)
     levels = sky_prefilter.constant_levels(colour) if pixels is None else sky_prefilter.sky_levels(pixels)
-    count, height, width, _ = levels.shape
-    data = np.ones((count * height, width, 4), dtype=np.float32)
-    data[:, :, :3] = levels.reshape(count * height, width, 3)
-    buf = gpu.types.Buffer("FLOAT", data.size, data.reshape(-1))
-    tex = gpu.types.GPUTexture((width, count * height), format="RGBA16F", data=buf)
-    sky = SkyTexture(tex, count, height, width, time.perf_counter() - start)
+    sky = levels_texture(levels)
+    sky.seconds = time.perf_counter() - start
     _cache["sky"] = (key, sky)
     return sky
+
+
+def levels_texture(levels):
+    """A SkyTexture of (levels, H, W, 3) radiance: the 3D texture of the levels, wrapped columns added."""
+    count, height, width, _ = levels.shape
+    data = np.ones((count, height, width + 2, 4), dtype=np.float32)
+    data[..., :3] = sky_prefilter.wrapped_columns(levels)
+    buf = gpu.types.Buffer("FLOAT", data.size, data.reshape(-1))
+    tex = gpu.types.GPUTexture((width + 2, height, count), format="RGBA16F", data=buf)
+    return SkyTexture(tex, count, height, width, 0.0)
 
 
 def sky_rows(scene):
@@ -91,7 +99,8 @@ def sky_rows(scene):
 
 
 def brdf_texture():
-    """The split-sum table (core.specular.brdf) as an RG of an RGBA32F texture, made once."""
+    """The split-sum table (core.specular.brdf) as an RG of an RGBA32F texture (filtered linearly,
+    clamped to the edge: the table's own bilinear lookup), made once."""
     tex = _cache.get("brdf")
     if tex is None:
         table = brdf.brdf_table()

@@ -72,3 +72,11 @@ def constant_levels(colour: npt.ArrayLike, width: int = WIDTH, levels: int = LEV
     """The levels of a constant sky: the colour everywhere."""
     c = np.clip(np.asarray(colour, dtype=np.float64)[:3], 0.0, None)
     return np.broadcast_to(c, (levels, width // 2, width, 3)).copy()
+
+
+def wrapped_columns(levels: npt.ArrayLike) -> np.ndarray:
+    """(levels, H, W + 2, C): each level with its last column copied before its first and its first
+    after its last, so that a clamp-to-edge bilinear lookup at x = (1 + u W) / (W + 2) wraps
+    around in longitude as the equirect image does."""
+    a = np.asarray(levels)
+    return np.concatenate([a[:, :, -1:], a, a[:, :, :1]], axis=2)
