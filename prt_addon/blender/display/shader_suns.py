@@ -12,7 +12,8 @@ the receiver's own plane at that texel's centre (receiver-plane depth bias: the 
 slope in the map follows from the normal), less a bias of one texel plus that slope, so the bias
 does not grow with the filter's radius. A PCF tap stands for one direction of the view's disc and
 counts with its cosine to the receiver, none below the receiver's horizon (where a map seeing the
-receiver edge-on holds nothing); a view whose own direction is below that horizon gives 0.
+receiver edge-on holds nothing); a view whose own direction is below that horizon gives 0. A PCF
+tap where the map holds nothing reads the tap mirrored through the centre instead.
 """
 
 import gpu
@@ -32,7 +33,7 @@ WIDE_PCF_TAPS = 8
 MAX_RADIUS = 64.0  # texels: widest penumbra filtered (a compact light's map, at 2048)
 WIDE_MAX_RADIUS = 24.0  # texels: a wide light's view's (1024): wider reaches past joins and edges
 MAX_SLOPE = 20.0  # tan of the receiver's angle to the light, capped for the bias
-CONTACT_SHIFT = 2.0  # lookups move this many biases along the contact tangent (docs/display.md, "Joins")
+CONTACT_SHIFT = 3.0  # lookups move this many biases along the contact tangent (docs/display.md, "Joins")
 
 UBO_SOURCE = (
     f"struct PRTSuns {{ vec4 nrm[3]; vec4 to_light[{3 * MAX_VIEWS}]; vec4 dir[{MAX_VIEWS}]; "
@@ -140,7 +141,14 @@ float view_visibility(sampler2D maps, int v, vec3 n, int blocker_taps, int pcf_t
     vec2 xy = q.xy + o;
     float w = max(facing + dot(tilt, o), 0.0);
     weight += w;
-    lit += w * step(q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias, sun_depth(maps, xy, origin, res));
+    // A tap on a column where nothing is (past a join, where the receiver's plane goes outside
+    // a closed room; past the map) reads its mirror tap instead: lit only if that one is.
+    float d = sun_depth(maps, xy, origin, res);
+    if (d > 1.0e29) {{
+      xy = q.xy - o;
+      d = sun_depth(maps, xy, origin, res);
+    }}
+    lit += w * step(q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias, d);
   }}
   return weight > 0.0 ? lit / weight : 0.0;
 }}
