@@ -220,13 +220,9 @@ float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pc
     vec2 xy = q.xy + o;
     float w = max(facing + dot(tilt, o), 0.0);
     weight += w;
-    // A tap on a column where nothing is (past a join, outside a closed room) reads its mirror
-    // tap instead (display/shader_suns.py).
     float d = sunDepth(maps, xy, layer, res);
-    if (d > 1.0e29) {
-      xy = q.xy - o;
-      d = sunDepth(maps, xy, layer, res);
-    }
+    // Behind the receiver's plane (past a join): the mirror tap instead (display/shader_suns.py).
+    if (d > q.z + dot(grad, floor(xy) + 0.5 - q.xy) + bias) { xy = q.xy - o; d = sunDepth(maps, xy, layer, res); }
     lit += w * step(q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias, d);
   }
   return weight > 0.0 ? lit / weight : 0.0;

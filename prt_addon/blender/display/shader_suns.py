@@ -13,7 +13,8 @@ slope in the map follows from the normal), less a bias of one texel plus that sl
 does not grow with the filter's radius. A PCF tap stands for one direction of the view's disc and
 counts with its cosine to the receiver, none below the receiver's horizon (where a map seeing the
 receiver edge-on holds nothing); a view whose own direction is below that horizon gives 0. A PCF
-tap where the map holds nothing reads the tap mirrored through the centre instead.
+tap whose map depth is behind the receiver's plane (past a join, where that plane is no surface)
+reads the tap mirrored through the centre instead.
 """
 
 import gpu
@@ -141,14 +142,17 @@ float view_visibility(sampler2D maps, int v, vec3 n, int blocker_taps, int pcf_t
     vec2 xy = q.xy + o;
     float w = max(facing + dot(tilt, o), 0.0);
     weight += w;
-    // A tap on a column where nothing is (past a join, where the receiver's plane goes outside
-    // a closed room; past the map) reads its mirror tap instead: lit only if that one is.
+    // A tap whose column holds nothing at or before the receiver's plane (past a join, where
+    // that plane goes outside a closed room or under the floor; past the map) reads its mirror
+    // tap instead: lit only if that one is.
+    float plane = q.z + dot(grad, floor(xy) + 0.5 - q.xy);
     float d = sun_depth(maps, xy, origin, res);
-    if (d > 1.0e29) {{
+    if (d > plane + bias) {{
       xy = q.xy - o;
+      plane = q.z + dot(grad, floor(xy) + 0.5 - q.xy);
       d = sun_depth(maps, xy, origin, res);
     }}
-    lit += w * step(q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias, d);
+    lit += w * step(plane - bias, d);
   }}
   return weight > 0.0 ? lit / weight : 0.0;
 }}
