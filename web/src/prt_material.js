@@ -221,8 +221,8 @@ float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pc
     float w = max(facing + dot(tilt, o), 0.0);
     weight += w;
     float d = sunDepth(maps, xy, layer, res);
-    // Behind the receiver's plane (past a join): the mirror tap instead (display/shader_suns.py).
-    if (d > q.z + dot(grad, floor(xy) + 0.5 - q.xy) + bias) { xy = q.xy - o; d = sunDepth(maps, xy, layer, res); }
+    // 2 biases behind the receiver's plane (past a join): the mirror tap (display/shader_suns.py).
+    if (d > q.z + dot(grad, floor(xy) + 0.5 - q.xy) + 2.0 * bias) { xy = q.xy - o; d = sunDepth(maps, xy, layer, res); }
     lit += w * step(q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias, d);
   }
   return weight > 0.0 ? lit / weight : 0.0;
