@@ -117,12 +117,9 @@ def _traced(points, normals, lights, occluder):
     return visibility.light_irradiance(normals, lights, seen)
 
 
-def wall_samples(bpy, scene, lights_image, sky_image, lights, dense):
-    """{wall: dict} at the wall's grid points the camera sees: 'view' the luminance of the view's
-    split-light part (lights_image - sky_image), 'shade' api.shade's model of it (16 rays, one per
-    sample, traced at the points), 'dense' the same over DENSE_SAMPLES rays per light, 'total'
-    the view's luminance, 'grid' the points' (i, j)."""
-    from prt_addon.blender.display import offscreen, shadows
+def _occluder(bpy, scene):
+    """(Embree occluder of the scene's casters, {object name: its triangles' index range})."""
+    from prt_addon.blender.display import shadows
     from prt_addon.core.trace.raytrace import EmbreeOccluder
 
     depsgraph = bpy.context.evaluated_depsgraph_get()
@@ -133,6 +130,26 @@ def wall_samples(bpy, scene, lights_image, sky_image, lights, dense):
         count = len(shadows.caster_triangles([obj], depsgraph)[1])
         ranges[obj.name] = (first, first + count)
         first += count
+    return occluder, ranges
+
+
+def _first_hits(occluder, eye, points):
+    """The index of the triangle the camera's ray towards each point hits first."""
+    towards = points - eye
+    return occluder.nearest_triangles(
+        np.tile(eye, (len(points), 1)).astype(np.float32),
+        (towards / np.linalg.norm(towards, axis=1, keepdims=True)).astype(np.float32),
+    )
+
+
+def wall_samples(bpy, scene, lights_image, sky_image, lights, dense):
+    """{wall: dict} at the wall's grid points the camera sees: 'view' the luminance of the view's
+    split-light part (lights_image - sky_image), 'shade' api.shade's model of it (16 rays, one per
+    sample, traced at the points), 'dense' the same over DENSE_SAMPLES rays per light, 'total'
+    the view's luminance, 'grid' the points' (i, j)."""
+    from prt_addon.blender.display import offscreen
+
+    occluder, ranges = _occluder(bpy, scene)
     view, proj = offscreen.camera_matrices(scene, SIZE, SIZE)
     eye = np.array(scene.camera.matrix_world.translation)
     out = {}
@@ -143,13 +160,9 @@ def wall_samples(bpy, scene, lights_image, sky_image, lights, dense):
         rows = np.floor((1.0 - ndc[:, 1]) * 0.5 * SIZE).astype(int)
         cols = np.floor((ndc[:, 0] + 1.0) * 0.5 * SIZE).astype(int)
         seen = (clip[:, 3] > 0) & (rows >= 0) & (rows < SIZE) & (cols >= 0) & (cols < SIZE)
-        towards = points - eye
-        first_hit = occluder.nearest_triangles(
-            np.tile(eye, (len(points), 1)).astype(np.float32),
-            (towards / np.linalg.norm(towards, axis=1, keepdims=True)).astype(np.float32),
-        )
+        first_hit = _first_hits(occluder, eye, points)
         lo, hi = ranges[name]
-        seen &= (first_hit >= lo) & (first_hit < hi) & (towards @ normal < 0.0)
+        seen &= (first_hit >= lo) & (first_hit < hi) & ((points - eye) @ normal < 0.0)
         p, n = points[seen], np.tile(normal, (int(seen.sum()), 1))
         r, c = rows[seen], cols[seen]
 
@@ -166,3 +179,53 @@ def wall_samples(bpy, scene, lights_image, sky_image, lights, dense):
 def relative_rms(values, reference):
     """RMS of values - reference over the RMS of the reference."""
     return float(np.sqrt(np.mean((values - reference) ** 2)) / max(np.sqrt(np.mean(reference**2)), 1e-12))
+
+
+# Joins of the room: (receiver, a, b, into the receiver from the join, the receiver's normal).
+JOINS = {
+    "back/ceiling": ("back", (-S, S, H), (S, S, H), (0, 0, -1), (0, -1, 0)),
+    "back/floor": ("back", (-S, S, 0), (S, S, 0), (0, 0, 1), (0, -1, 0)),
+    "back/right": ("back", (S, S, 0), (S, S, H), (-1, 0, 0), (0, -1, 0)),
+    "left/ceiling": ("left", (-S, -S, H), (-S, S, H), (0, 0, -1), (1, 0, 0)),
+    "left/floor": ("left", (-S, -S, 0), (-S, S, 0), (0, 0, 1), (1, 0, 0)),
+    "right/ceiling": ("right", (S, -S, H), (S, S, H), (0, 0, -1), (-1, 0, 0)),
+    "right/back": ("right", (S, S, 0), (S, S, H), (0, -1, 0), (-1, 0, 0)),
+    "floor/back": ("floor", (-S, S, 0), (S, S, 0), (0, -1, 0), (0, 0, 1)),
+    "floor/right": ("floor", (S, -S, 0), (S, S, 0), (-1, 0, 0), (0, 0, 1)),
+    "right/floor": ("right", (S, -S, 0), (S, S, 0), (0, 0, 1), (-1, 0, 0)),
+    "floor/box": ("floor", (0.7, -0.9, 0), (1.3, -0.9, 0), (0, -1, 0), (0, 0, 1)),
+    "box/floor (west side)": ("box", (0.7, -0.9, 0), (0.7, -0.3, 0), (0, 0, 1), (-1, 0, 0)),
+    "box/floor (south side)": ("box", (0.7, -0.9, 0), (1.3, -0.9, 0), (0, 0, 1), (0, -1, 0)),
+}
+
+
+def join_bands(bpy, scene, lights_image, sky_image, dense, distances):
+    """{join: (view, traced)}, each (len(distances),): the luminance of the view's split-light
+    part and of the dense lights traced, averaged over 40 points along the join (its middle 80 %)
+    at each distance from it on the receiver, the points the camera sees."""
+    from prt_addon.blender.display import offscreen
+
+    occluder, ranges = _occluder(bpy, scene)
+    view, proj = offscreen.camera_matrices(scene, SIZE, SIZE)
+    eye = np.array(scene.camera.matrix_world.translation)
+    t = np.linspace(0.1, 0.9, 40)[:, None]
+    out = {}
+    for key, (name, a, b, inward, normal) in JOINS.items():
+        a, b, inward = np.asarray(a, float), np.asarray(b, float), np.asarray(inward, float)
+        views, traced = [], []
+        for d in distances:
+            p = a + t * (b - a) + d * inward
+            n = np.tile(np.asarray(normal, float), (len(p), 1))
+            clip = np.c_[p, np.ones(len(p))] @ (proj @ view).T
+            ndc = clip[:, :2] / clip[:, 3:4]
+            seen = (clip[:, 3] > 0) & (np.abs(ndc) < 0.999).all(axis=1) & ((p - eye) @ n[0] < 0.0)
+            first_hit = _first_hits(occluder, eye, p)  # (the walls' own hits are unsure at grazing views)
+            for other in {"box", "table"} - {name}:
+                seen &= (first_hit < ranges[other][0]) | (first_hit >= ranges[other][1])
+            assert seen.sum() >= 5, key
+            rows = np.floor((1.0 - ndc[seen, 1]) * 0.5 * SIZE).astype(int)
+            cols = np.floor((ndc[seen, 0] + 1.0) * 0.5 * SIZE).astype(int)
+            views.append(float(((lights_image[rows, cols, :3] - sky_image[rows, cols, :3]) @ LUMA).mean()))
+            traced.append(float((_traced(p[seen], n[seen], dense, occluder) @ LUMA).mean()))
+        out[key] = (np.array(views), np.array(traced))
+    return out

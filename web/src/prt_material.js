@@ -220,7 +220,10 @@ float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pc
     vec2 xy = q.xy + o;
     float w = max(facing + dot(tilt, o), 0.0);
     weight += w;
-    lit += w * step(q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias, sunDepth(maps, xy, layer, res));
+    float d = sunDepth(maps, xy, layer, res);
+    // 2 biases behind the receiver's plane (past a join): the mirror tap (display/shader_suns.py).
+    if (d > q.z + dot(grad, floor(xy) + 0.5 - q.xy) + 2.0 * bias) { xy = q.xy - o; d = sunDepth(maps, xy, layer, res); }
+    lit += w * step(q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias, d);
   }
   return weight > 0.0 ? lit / weight : 0.0;
 }

@@ -12,7 +12,9 @@ the receiver's own plane at that texel's centre (receiver-plane depth bias: the 
 slope in the map follows from the normal), less a bias of one texel plus that slope, so the bias
 does not grow with the filter's radius. A PCF tap stands for one direction of the view's disc and
 counts with its cosine to the receiver, none below the receiver's horizon (where a map seeing the
-receiver edge-on holds nothing); a view whose own direction is below that horizon gives 0.
+receiver edge-on holds nothing); a view whose own direction is below that horizon gives 0. A PCF
+tap whose map depth is far behind the receiver's plane (past a join, where that plane is no
+surface) reads the tap mirrored through the centre instead.
 """
 
 import gpu
@@ -32,7 +34,8 @@ WIDE_PCF_TAPS = 8
 MAX_RADIUS = 64.0  # texels: widest penumbra filtered (a compact light's map, at 2048)
 WIDE_MAX_RADIUS = 24.0  # texels: a wide light's view's (1024): wider reaches past joins and edges
 MAX_SLOPE = 20.0  # tan of the receiver's angle to the light, capped for the bias
-CONTACT_SHIFT = 2.0  # lookups move this many biases along the contact tangent (docs/display.md, "Joins")
+MIRROR_BEHIND = 2.0  # biases behind the receiver's plane past which a PCF tap reads its mirror tap
+CONTACT_SHIFT = 3.0  # lookups move this many biases along the contact tangent (docs/display.md, "Joins")
 
 UBO_SOURCE = (
     f"struct PRTSuns {{ vec4 nrm[3]; vec4 to_light[{3 * MAX_VIEWS}]; vec4 dir[{MAX_VIEWS}]; "
@@ -140,7 +143,17 @@ float view_visibility(sampler2D maps, int v, vec3 n, int blocker_taps, int pcf_t
     vec2 xy = q.xy + o;
     float w = max(facing + dot(tilt, o), 0.0);
     weight += w;
-    lit += w * step(q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias, sun_depth(maps, xy, origin, res));
+    // A tap whose column holds nothing at or near the receiver's plane, only far behind it (past
+    // a join, where that plane goes outside a closed room or under the floor; past the map),
+    // reads its mirror tap instead: lit only if that one is.
+    float plane = q.z + dot(grad, floor(xy) + 0.5 - q.xy);
+    float d = sun_depth(maps, xy, origin, res);
+    if (d > plane + {MIRROR_BEHIND} * bias) {{
+      xy = q.xy - o;
+      plane = q.z + dot(grad, floor(xy) + 0.5 - q.xy);
+      d = sun_depth(maps, xy, origin, res);
+    }}
+    lit += w * step(plane - bias, d);
   }}
   return weight > 0.0 ? lit / weight : 0.0;
 }}
