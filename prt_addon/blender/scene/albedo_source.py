@@ -157,22 +157,37 @@ def colour_space_note(image):
 LINEAR_SPACES = {"Non-Color", "Linear Rec.709", "Linear", "Raw"}
 
 
-def image_pixels(image):
-    """((h, w, 3) float32 scene-linear RGB clamped to [0, 1], row 0 the bottom, note), or (None,
-    note) when the image has no pixels (a missing file). Byte sRGB images are decoded with the sRGB
-    curve, float and linear ones kept; other colour spaces are read as sRGB, with a note."""
+def raw_pixels(image):
+    """((h, w, channels) float32 as Blender holds them, row 0 the bottom, ""), or (None, note) when
+    the image has no pixels (a missing file)."""
     width, height = image.size
     if width == 0 or height == 0:
         return None, f"image '{image.name}' has no pixels (missing or unreadable file)"
     px = np.empty(width * height * image.channels, dtype=np.float32)
     image.pixels.foreach_get(px)
-    px = px.reshape(height, width, image.channels)
+    return px.reshape(height, width, image.channels), ""
+
+
+def linear_rgb(image, px):
+    """(h, w, 3) RGB of raw_pixels' `px`, a byte image not in a linear space decoded with the sRGB
+    curve (as Cycles reads it, whatever the socket), float and linear ones kept."""
     rgb = px[..., :3] if image.channels >= 3 else np.repeat(px[..., :1], 3, axis=2)
-    space, note = image.colorspace_settings.name, ""
-    if not image.is_float and space not in LINEAR_SPACES:
-        if space != "sRGB":
-            note = f"image '{image.name}': colour space {space} read as sRGB"
+    if not image.is_float and image.colorspace_settings.name not in LINEAR_SPACES:
         rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    return rgb
+
+
+def image_pixels(image):
+    """((h, w, 3) float32 scene-linear RGB clamped to [0, 1], row 0 the bottom, note), or (None,
+    note) when the image has no pixels (a missing file). Byte sRGB images are decoded with the sRGB
+    curve, float and linear ones kept; other colour spaces are read as sRGB, with a note."""
+    px, note = raw_pixels(image)
+    if px is None:
+        return None, note
+    rgb = linear_rgb(image, px)
+    space = image.colorspace_settings.name
+    if not image.is_float and space not in LINEAR_SPACES and space != "sRGB":
+        note = f"image '{image.name}': colour space {space} read as sRGB"
     if space == "Non-Color":
         note = f"image '{image.name}' is Non-Color data on a colour input: its values are used as they are"
     if rgb.min() < 0.0 or rgb.max() > 1.0:

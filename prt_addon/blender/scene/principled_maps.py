@@ -4,7 +4,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .albedo_source import EXTENSION_MODES, INTERPOLATION_MODES, LINEAR_SPACES
+from .albedo_source import EXTENSION_MODES, INTERPOLATION_MODES, LINEAR_SPACES, linear_rgb, raw_pixels
 from .materials import active_output
 
 INPUTS = ("Roughness", "Metallic", "Specular IOR Level")
@@ -169,18 +169,13 @@ def map_pixels(image, channel, factor=1.0, upper=1.0):
     """((h, w) float32 values in [0, upper], row 0 the bottom, note) of one channel of `image` times
     factor, decoded as the image's colour space says (an 8-bit image not in a linear space through
     the sRGB curve, as Cycles reads it whatever the socket); (None, note) without pixels."""
-    width, height = image.size
-    if width == 0 or height == 0:
-        return None, f"image '{image.name}' has no pixels (missing or unreadable file)"
-    px = np.empty(width * height * image.channels, dtype=np.float32)
-    image.pixels.foreach_get(px)
-    px = px.reshape(height, width, image.channels)
+    px, note = raw_pixels(image)
+    if px is None:
+        return None, note
     if channel == ALPHA:
-        values = px[..., 3] if image.channels == 4 else np.ones((height, width), np.float32)
+        values = px[..., 3] if image.channels == 4 else np.ones(px.shape[:2], np.float32)
     else:
-        rgb = px[..., :3] if image.channels >= 3 else np.repeat(px[..., :1], 3, axis=2)
-        if not image.is_float and image.colorspace_settings.name not in LINEAR_SPACES:
-            rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+        rgb = linear_rgb(image, px)
         values = rgb @ LUMA if channel == LUMINANCE else rgb[..., channel]
     values = values * np.float32(factor)
     note = ""
