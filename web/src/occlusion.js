@@ -10,6 +10,7 @@
 // its vertex's occlusion; it runs again only when the eye point (the camera's position, or its
 // direction for an orthographic camera) or the node's matrix changed.
 import * as THREE from 'three';
+import { renderInto } from './relight.js';
 
 /** GLSL lines setting `float occ` from the transfer's vec4s `fetch(k)` at the world point `wp`
  * with the world normal `sn` and the direction to the viewer `sv` (uniforms prtFrame, prtBands,
@@ -182,16 +183,7 @@ export class OcclusionPass {
     u.prtEye.value.copy(eye);
     u.prtModel.value.copy(object.matrixWorld);
     this.model = object.matrixWorld.clone();
-    const previous = renderer.getRenderTarget();
-    const autoClear = renderer.autoClear;
-    try {
-      renderer.autoClear = false;
-      renderer.setRenderTarget(this.target);
-      renderer.render(this.scene, this.camera);
-    } finally {
-      renderer.setRenderTarget(previous);
-      renderer.autoClear = autoClear;
-    }
+    renderInto(renderer, this.scene, this.camera, this.target);
     return true;
   }
 

@@ -49,6 +49,20 @@ ${sum(count, channels, source)}
 }
 `;
 
+/** Render `scene` into `target` as a nested render: the renderer's target and auto-clear are restored. */
+export function renderInto(renderer, scene, camera, target) {
+  const previous = renderer.getRenderTarget();
+  const autoClear = renderer.autoClear;
+  try {
+    renderer.autoClear = false;
+    renderer.setRenderTarget(target);
+    renderer.render(scene, camera);
+  } finally {
+    renderer.setRenderTarget(previous);
+    renderer.autoClear = autoClear;
+  }
+}
+
 /** The relit radiance of one baked mesh: a float target of source.relightSize, drawn by run(renderer)
  * with the light uniforms of `material` (prt_material.js). */
 export class Relight {
@@ -86,16 +100,7 @@ export class Relight {
 
   /** Draw the target now (a nested render: the renderer's target and clear colour are restored). */
   run(renderer) {
-    const previous = renderer.getRenderTarget();
-    const autoClear = renderer.autoClear;
-    try {
-      renderer.autoClear = false;
-      renderer.setRenderTarget(this.target);
-      renderer.render(this.scene, this.camera);
-    } finally {
-      renderer.setRenderTarget(previous);
-      renderer.autoClear = autoClear;
-    }
+    renderInto(renderer, this.scene, this.camera, this.target);
     this.dirty = false;
   }
 
