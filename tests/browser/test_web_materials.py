@@ -1,9 +1,6 @@
 """The three.js plugin keeps the glTF material's base colour texture: per pixel, on its UV channel, through its transform, sRGB decoded."""
 
 import copy
-import json
-import os
-import subprocess
 
 import numpy as np
 import pytest
@@ -16,8 +13,8 @@ from helpers.material_scenes import (
     texture_colour,
     textured_scene,
 )
-from helpers.paths import ROOT
 from helpers.shadow_scenes import cap_light
+from helpers.web import float_renders, run_plugin_page
 
 WIDTH, HEIGHT = 320, 240
 # Mean relative error allowed between the textured image and the white one times the texture's
@@ -29,21 +26,8 @@ EDGE_TEXELS = 1.5  # pixels whose lookup is within this of a quadrant's edge mix
 
 
 def _plugin_images(browser_tools, tmp_path, files, renders):
-    job = {"chromium": browser_tools["chromium"], "out": str(tmp_path / "plugin"), "files": files, "renders": renders}
-    path = tmp_path / "job.json"
-    path.write_text(json.dumps(job))
-    run = subprocess.run(
-        ["node", os.path.join(ROOT, "web", "tools", "plugin_headless.mjs"), str(path)],
-        capture_output=True,
-        text=True,
-        timeout=900,
-        env=dict(os.environ, PRT_NODE_MODULES=browser_tools["modules"]),
-    )
-    assert run.returncode == 0, run.stderr[-3000:]
-    summary = json.loads(run.stdout.strip().splitlines()[-1])
-    assert summary["requests"] == [], summary["requests"]
-    images = [np.fromfile(r["file"], np.float32).reshape(HEIGHT, WIDTH, 4) for r in summary["renders"]]
-    return summary["files"], images
+    summary = run_plugin_page(browser_tools, tmp_path, files, renders, timeout=900)
+    return summary["files"], float_renders(summary, HEIGHT, WIDTH)
 
 
 def _with_transform(path, out, offset):

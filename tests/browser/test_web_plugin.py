@@ -8,7 +8,7 @@ import subprocess
 import numpy as np
 import pytest
 from helpers.paths import ROOT
-from helpers.web import MEAN_TOLERANCE, P99_TOLERANCE, _compare, _turns_and_references
+from helpers.web import MEAN_TOLERANCE, P99_TOLERANCE, _compare, _turns_and_references, run_plugin_page
 
 pytestmark = pytest.mark.gpu  # (it renders the references with the GPU too)
 
@@ -137,19 +137,7 @@ def test_plugin_in_an_app_page(demo_scene, browser_tools, tmp_path, capsys):
     next(r for r in renders if r["name"] is None)["camera"] = _file_camera(
         prt
     )  # the app alone, framed as the file's camera frames it
-    job = {"chromium": browser_tools["chromium"], "out": str(tmp_path / "plugin"), "files": files, "renders": renders}
-    path = tmp_path / "job.json"
-    path.write_text(json.dumps(job))
-    run = subprocess.run(
-        ["node", os.path.join(ROOT, "web", "tools", "plugin_headless.mjs"), str(path)],
-        capture_output=True,
-        text=True,
-        timeout=600,
-        env=dict(os.environ, PRT_NODE_MODULES=browser_tools["modules"]),
-    )
-    assert run.returncode == 0, run.stderr[-3000:]
-    summary = json.loads(run.stdout.strip().splitlines()[-1])
-    assert summary["requests"] == [], summary["requests"]
+    summary = run_plugin_page(browser_tools, tmp_path, files, renders, timeout=600)
     images = [
         np.fromfile(r["file"], np.float32 if renders[i].get("target", "float") == "float" else np.uint8)
         for i, r in enumerate(summary["renders"])

@@ -1,15 +1,11 @@
 """The three.js plugin draws Roughness and Metallic from the file's metallicRoughnessTexture (G, B) per pixel, as api.render_view draws the Blender material's image."""
 
-import json
-import os
-import subprocess
-
 import numpy as np
 import pytest
 from helpers import spec_map_scenes as maps
 from helpers.material_scenes import glossy_scene
-from helpers.paths import ROOT
 from helpers.specular_scenes import object_masks
+from helpers.web import float_renders, run_plugin_page
 
 pytestmark = pytest.mark.gpu  # (render_view draws the references with the GPU)
 
@@ -18,23 +14,11 @@ WIDTH, HEIGHT = 320, 160
 
 def _plugin_images(browser_tools, tmp_path, files):
     renders = [{"name": f["name"], "width": WIDTH, "height": HEIGHT} for f in files]
-    job = {"chromium": browser_tools["chromium"], "out": str(tmp_path / "plugin"), "files": files, "renders": renders}
-    path = tmp_path / "job.json"
-    path.write_text(json.dumps(job))
-    run = subprocess.run(
-        ["node", os.path.join(ROOT, "web", "tools", "plugin_headless.mjs"), str(path)],
-        capture_output=True,
-        text=True,
-        timeout=1200,
-        env=dict(os.environ, PRT_NODE_MODULES=browser_tools["modules"]),
-    )
-    assert run.returncode == 0, run.stderr[-3000:]
-    summary = json.loads(run.stdout.strip().splitlines()[-1])
-    assert summary["requests"] == [], summary["requests"]
+    summary = run_plugin_page(browser_tools, tmp_path, files, renders, timeout=1200)
     for f in files:
         said = summary["files"][f["name"]]["console"]
         assert summary["files"][f["name"]]["prt"] and not [m for m in said if m.startswith(("error", "pageerror"))]
-    return [np.fromfile(r["file"], np.float32).reshape(HEIGHT, WIDTH, 4) for r in summary["renders"]]
+    return float_renders(summary, HEIGHT, WIDTH)
 
 
 def test_the_plugin_draws_the_metallic_roughness_map_as_render_view(bpy_module, addon, browser_tools, tmp_path):

@@ -1,14 +1,10 @@
 """The three.js plugin's Principled specular (sky, split-sum table, occlusion, split lights' highlights) against api.render_view with Specular on."""
 
-import json
-import os
-import subprocess
-
 import numpy as np
 import pytest
 from helpers.material_scenes import glossy_scene
-from helpers.paths import ROOT
 from helpers.specular_scenes import object_masks
+from helpers.web import float_renders, run_plugin_page
 
 pytestmark = pytest.mark.gpu  # (render_view draws the references with the GPU)
 
@@ -16,21 +12,8 @@ WIDTH, HEIGHT = 320, 160
 
 
 def _plugin_images(browser_tools, tmp_path, files, renders):
-    job = {"chromium": browser_tools["chromium"], "out": str(tmp_path / "plugin"), "files": files, "renders": renders}
-    path = tmp_path / "job.json"
-    path.write_text(json.dumps(job))
-    run = subprocess.run(
-        ["node", os.path.join(ROOT, "web", "tools", "plugin_headless.mjs"), str(path)],
-        capture_output=True,
-        text=True,
-        timeout=1200,
-        env=dict(os.environ, PRT_NODE_MODULES=browser_tools["modules"]),
-    )
-    assert run.returncode == 0, run.stderr[-3000:]
-    summary = json.loads(run.stdout.strip().splitlines()[-1])
-    assert summary["requests"] == [], summary["requests"]
-    images = [np.fromfile(r["file"], np.float32).reshape(HEIGHT, WIDTH, 4) for r in summary["renders"]]
-    return summary["files"], images
+    summary = run_plugin_page(browser_tools, tmp_path, files, renders, timeout=1200)
+    return summary["files"], float_renders(summary, HEIGHT, WIDTH)
 
 
 def test_the_plugin_draws_principled_specular_as_render_view(bpy_module, addon, browser_tools, tmp_path, capsys):

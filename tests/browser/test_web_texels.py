@@ -1,14 +1,17 @@
 """The three.js plugin on a texel bake (the ground per texel, Suzanne per vertex) in headless Chromium, against api.render_view."""
 
-import json
-import os
-import subprocess
-
 import numpy as np
 import pytest
 from helpers.fixtures_web import TEXEL_RESOLUTION
-from helpers.paths import ROOT
-from helpers.web import MEAN_TOLERANCE, P99_TOLERANCE, _compare, _turns_and_references, coloured_material
+from helpers.web import (
+    MEAN_TOLERANCE,
+    P99_TOLERANCE,
+    _compare,
+    _turns_and_references,
+    coloured_material,
+    float_renders,
+    run_plugin_page,
+)
 
 pytestmark = pytest.mark.gpu  # (render_view draws the references with the GPU)
 
@@ -16,21 +19,8 @@ WIDTH, HEIGHT = 320, 240
 
 
 def _plugin_images(browser_tools, tmp_path, files, renders):
-    job = {"chromium": browser_tools["chromium"], "out": str(tmp_path / "plugin"), "files": files, "renders": renders}
-    path = tmp_path / "job.json"
-    path.write_text(json.dumps(job))
-    run = subprocess.run(
-        ["node", os.path.join(ROOT, "web", "tools", "plugin_headless.mjs"), str(path)],
-        capture_output=True,
-        text=True,
-        timeout=600,
-        env=dict(os.environ, PRT_NODE_MODULES=browser_tools["modules"]),
-    )
-    assert run.returncode == 0, run.stderr[-3000:]
-    summary = json.loads(run.stdout.strip().splitlines()[-1])
-    assert summary["requests"] == [], summary["requests"]
-    images = [np.fromfile(r["file"], np.float32).reshape(HEIGHT, WIDTH, 4) for r in summary["renders"]]
-    return summary["files"], images
+    summary = run_plugin_page(browser_tools, tmp_path, files, renders, timeout=600)
+    return summary["files"], float_renders(summary, HEIGHT, WIDTH)
 
 
 def test_the_plugin_draws_a_texel_bake_as_render_view(texel_demo_scene, browser_tools, tmp_path, capsys):

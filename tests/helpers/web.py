@@ -31,6 +31,30 @@ def _tool(script, *args):
     return run.stdout.strip().splitlines()[-1]
 
 
+def run_plugin_page(tools, tmp_path, files, renders, timeout=1200):
+    """web/tools/plugin_headless.mjs on `files` and `renders` (its job's lists): its summary, the
+    page having asked for nothing but itself."""
+    job = {"chromium": tools["chromium"], "out": str(tmp_path / "plugin"), "files": files, "renders": renders}
+    path = tmp_path / "job.json"
+    path.write_text(json.dumps(job))
+    run = subprocess.run(
+        ["node", os.path.join(ROOT, "web", "tools", "plugin_headless.mjs"), str(path)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=dict(os.environ, PRT_NODE_MODULES=tools["modules"]),
+    )
+    assert run.returncode == 0, run.stderr[-3000:]
+    summary = json.loads(run.stdout.strip().splitlines()[-1])
+    assert summary["requests"] == [], summary["requests"]
+    return summary
+
+
+def float_renders(summary, height, width):
+    """The summary's renders as (height, width, 4) float32 images."""
+    return [np.fromfile(r["file"], np.float32).reshape(height, width, 4) for r in summary["renders"]]
+
+
 def _run_viewer(tools, job, tmp_path):
     path = tmp_path / f"job_{os.path.basename(job['out'])}.json"
     path.write_text(json.dumps(dict(job, chromium=tools["chromium"])))
