@@ -16,22 +16,9 @@ def courtyard_room(bpy_module, addon, gpu_ready):
     """The room baked (order 2), drawn with courtyard's split lights and with none; the joins'
     bands (helpers.skylight_quads.join_bands) and the dense lights."""
     import prt_addon.api as api
-    from prt_addon.blender.scene import lighting
 
     bpy = bpy_module
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    objects = room.build(bpy, scene, "courtyard")
-    api.bake(objects, order=2, samples=64)
-    api.project_world(scene, 2, split_lights=True)
-    lights = lighting.world_lights(scene)
-    image = api.render_view(scene, room.SIZE, room.SIZE)
-    lighting.set_lights_override(scene, [])
-    try:
-        sky = api.render_view(scene, room.SIZE, room.SIZE)
-        shade_sky = {obj.name: api.shade(obj, scene) for obj in objects[:5]}
-    finally:
-        lighting.set_lights_override(scene, None)
+    scene, objects, lights, image, sky, shade_sky = room.baked_views(bpy, "courtyard", shade_sky=True)
     shade = {obj.name: api.shade(obj, scene) - shade_sky[obj.name] for obj in objects[:5]}
     dense = room.dense_lights(scene, lights)
     bands = room.join_bands(bpy, scene, image, sky, dense, DISTANCES)

@@ -12,22 +12,8 @@ pytestmark = pytest.mark.skipif(not raytrace.EMBREE_AVAILABLE, reason="embreex n
 def courtyard_walls(bpy_module, addon, gpu_ready):
     """The room baked (order 2: the test reads the lights' part, which the bake does not change),
     drawn with courtyard's split lights and with none; the walls sampled (helpers.skylight_quads)."""
-    import prt_addon.api as api
-    from prt_addon.blender.scene import lighting
-
     bpy = bpy_module
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    objects = room.build(bpy, scene, "courtyard")
-    api.bake(objects, order=2, samples=64)
-    api.project_world(scene, 2, split_lights=True)
-    lights = lighting.world_lights(scene)
-    image = api.render_view(scene, room.SIZE, room.SIZE)
-    lighting.set_lights_override(scene, [])
-    try:
-        sky = api.render_view(scene, room.SIZE, room.SIZE)
-    finally:
-        lighting.set_lights_override(scene, None)
+    scene, _objects, lights, image, sky, _walls = room.baked_views(bpy, "courtyard")
     return lights, room.wall_samples(bpy, scene, image, sky, lights, room.dense_lights(scene, lights))
 
 

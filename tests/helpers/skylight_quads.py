@@ -77,6 +77,30 @@ def build(bpy, scene, hdri="courtyard"):
     return objects
 
 
+def baked_views(bpy, hdri="courtyard", shade_sky=False):
+    """The room built in an empty file, baked (order 2, 64 directions: the tests read the lights'
+    part, which the bake does not change) and drawn with the HDRI's split lights and with none:
+    (scene, objects, lights, image, sky image, and with `shade_sky` api.shade of each wall without
+    the lights, else None)."""
+    import prt_addon.api as api
+    from prt_addon.blender.scene import lighting
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    objects = build(bpy, scene, hdri)
+    api.bake(objects, order=2, samples=64)
+    api.project_world(scene, 2, split_lights=True)
+    lights = lighting.world_lights(scene)
+    image = api.render_view(scene, SIZE, SIZE)
+    lighting.set_lights_override(scene, [])
+    try:
+        sky = api.render_view(scene, SIZE, SIZE)
+        walls = {obj.name: api.shade(obj, scene) for obj in objects[: len(WALLS)]} if shade_sky else None
+    finally:
+        lighting.set_lights_override(scene, None)
+    return scene, objects, lights, image, sky, walls
+
+
 def dense_lights(scene, lights):
     """The scene's split lights again, each with DENSE_SAMPLES power cells of its own texels (the
     same regions, powers and directions as `lights`, which must be unrotated)."""
