@@ -5,6 +5,7 @@ no UV map, a UV Map node naming a map the mesh lacks."""
 import numpy as np
 import pytest
 from helpers import albedo_scenes
+from helpers.panels import RecordingLayout, labels
 
 VIEWPORT = (0.25, 0.5, 0.75)
 
@@ -115,24 +116,6 @@ def test_no_uv_map_draws_the_viewport_colour_and_tells(bpy_module, empty_scene, 
     assert "no UV map" in note and (uv_map is None or "'elsewhere'" in note)
 
 
-class _Layout:
-    """Records the labels a panel's draw() puts in it."""
-
-    def __init__(self, log):
-        self.log = log
-
-    def label(self, text="", **_kw):
-        self.log.append(text)
-
-    def prop(self, *_args, **_kw):
-        pass
-
-    def row(self, **_kw):
-        return self
-
-    column = row
-
-
 def test_display_panel_says_why_an_image_is_not_drawn(bpy_module, empty_scene, tmp_path):
     import types
 
@@ -147,5 +130,6 @@ def test_display_panel_says_why_an_image_is_not_drawn(bpy_module, empty_scene, t
     write_bake(obj, np.zeros((4, 9)), 3)
     log = []
     context = types.SimpleNamespace(scene=empty_scene, active_object=obj, region=types.SimpleNamespace(width=2000))
-    panels.VIEW3D_PT_prt_display.draw(types.SimpleNamespace(layout=_Layout(log)), context)
+    panels.VIEW3D_PT_prt_display.draw(types.SimpleNamespace(layout=RecordingLayout(log)), context)
+    log = labels(log)
     assert any("'gone' has no pixels" in line and "viewport colour is used" in line for line in log), log

@@ -1,5 +1,7 @@
 """The PRT tab's words and presets: the one-line result, the full report, the bake presets."""
 
+from helpers.panels import RecordingLayout
+
 
 def test_presets_set_order_and_samples_and_custom_is_recognised(bpy_module, empty_scene):
     from prt_addon.blender.bake.presets import PRESETS, preset_of
@@ -75,27 +77,6 @@ def test_long_labels_wrap_to_the_region_width(bpy_module):
     lines = [entry[1] for entry in log]
     assert len(lines) > 1 and " ".join(lines) == text
     assert all(len(line) <= width for line in lines)
-
-
-class RecordingLayout:
-    """Stands in for a panel's UILayout: records what draw() puts in it (props with their text)."""
-
-    def __init__(self, log):
-        self.log = log
-
-    def prop(self, data, name, text=None, **_kw):
-        self.log.append(("prop", name, text))
-
-    def label(self, text="", **_kw):
-        self.log.append(("label", text))
-
-    def operator(self, idname, text=None, **_kw):
-        self.log.append(("operator", idname, text))
-
-    def row(self, **_kw):
-        return self
-
-    column = row
 
 
 def draw_panel(panel_class, scene):

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from helpers import spec_map_scenes as maps
 from helpers.albedo_scenes import halves_png, image_material
+from helpers.panels import RecordingLayout, labels
 
 
 def _plane(bpy, material, uv=True):
@@ -177,24 +178,6 @@ def test_maps_on_another_uv_map_than_the_base_colour_fall_back(bpy_module, empty
     assert not found.any and "on UV map 'second', the material's other image on 'UVMap'" in found.notes[0]
 
 
-class _Layout:
-    """Records the labels a panel's draw() puts in it."""
-
-    def __init__(self, log):
-        self.log = log
-
-    def label(self, text="", **_kw):
-        self.log.append(text)
-
-    def prop(self, *_args, **_kw):
-        pass
-
-    def row(self, **_kw):
-        return self
-
-    column = row
-
-
 @pytest.mark.parametrize("specular", [False, True])
 def test_display_panel_says_why_a_map_is_not_drawn(bpy_module, empty_scene, tmp_path, specular):
     """With Specular on, the Display panel says why a roughness image is drawn as its constant;
@@ -214,6 +197,7 @@ def test_display_panel_says_why_a_map_is_not_drawn(bpy_module, empty_scene, tmp_
     empty_scene.prt_display.specular = specular
     log = []
     context = types.SimpleNamespace(scene=empty_scene, active_object=obj, region=types.SimpleNamespace(width=2000))
-    panels.VIEW3D_PT_prt_display.draw(types.SimpleNamespace(layout=_Layout(log)), context)
+    panels.VIEW3D_PT_prt_display.draw(types.SimpleNamespace(layout=RecordingLayout(log)), context)
+    log = labels(log)
     said = [line for line in log if "'gone' has no pixels" in line and "its constant is used" in line]
     assert bool(said) == specular, log
