@@ -29,6 +29,17 @@ def _use(obj, material):
     obj.data.materials.append(material)
 
 
+def _quadrant_pixels(bpy, scene, obj):
+    """The sphere's pixels per quadrant of its UV square: drawn diffuse with an image of one colour
+    a quadrant (maps.ID_COLOURS), Specular left off."""
+    import prt_addon.api as api
+
+    ids = maps.quadrant_image(bpy, "ids", maps.ID_COLOURS, "sRGB")
+    _use(obj, maps.id_material(bpy, ids))
+    scene.prt_display.specular = False
+    return maps.quadrant_masks(api.render_view(scene))
+
+
 def test_the_map_draws_each_quadrant_as_its_constants(bpy_module, sphere):
     """A sphere whose Roughness (G) and Metallic (B) come from a four-quadrant image, glossy and
     rough, dielectric and metal: every pixel of a quadrant (less 3 at its edges) is the pixel of
@@ -38,10 +49,7 @@ def test_the_map_draws_each_quadrant_as_its_constants(bpy_module, sphere):
 
     bpy = bpy_module
     scene, obj = sphere
-    ids = maps.quadrant_image(bpy, "ids", maps.ID_COLOURS, "sRGB")
-    _use(obj, maps.id_material(bpy, ids))
-    scene.prt_display.specular = False
-    masks = maps.quadrant_masks(api.render_view(scene))
+    masks = _quadrant_pixels(bpy, scene, obj)
     scene.prt_display.specular = True
     material, _tex = maps.orm_material(bpy, maps.orm_image(bpy))
     _use(obj, material)
@@ -73,10 +81,7 @@ def test_a_specular_level_map_draws_each_half_as_its_constant(bpy_module, sphere
 
     bpy = bpy_module
     scene, obj = sphere
-    ids = maps.quadrant_image(bpy, "ids", maps.ID_COLOURS, "sRGB")
-    _use(obj, maps.id_material(bpy, ids))
-    scene.prt_display.specular = False
-    masks = maps.quadrant_masks(api.render_view(scene))
+    masks = _quadrant_pixels(bpy, scene, obj)
     scene.prt_display.specular = True
     levels = {q: (0.0 if q[0] == 0 else 1.0) for q in maps.QUADRANTS}
     image = maps.quadrant_image(bpy, "levels", {q: (x, x, x) for q, x in levels.items()})
