@@ -31,10 +31,16 @@ def _tool(script, *args):
     return run.stdout.strip().splitlines()[-1]
 
 
-def run_plugin_page(tools, tmp_path, files, renders, timeout=1200):
-    """web/tools/plugin_headless.mjs on `files` and `renders` (its job's lists): its summary, the
-    page having asked for nothing but itself."""
-    job = {"chromium": tools["chromium"], "out": str(tmp_path / "plugin"), "files": files, "renders": renders}
+def run_plugin_page(tools, tmp_path, files, renders, timeout=1200, release=()):
+    """web/tools/plugin_headless.mjs on `files` and `renders` (its job's lists; `release`: the files
+    freed after the renders, in order): its summary, the page having asked for nothing but itself."""
+    job = {
+        "chromium": tools["chromium"],
+        "out": str(tmp_path / "plugin"),
+        "files": files,
+        "renders": renders,
+        "release": list(release),
+    }
     path = tmp_path / "job.json"
     path.write_text(json.dumps(job))
     run = subprocess.run(

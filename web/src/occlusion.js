@@ -188,8 +188,13 @@ export class OcclusionPass {
   }
 
   dispose() {
-    // (not the points' geometry: its dispose would free the mesh's own position and normal buffers)
     this.target.dispose();
     this.material.dispose();
+    // The points' geometry holds the mesh's own position and normal buffers: let go of them first,
+    // so its dispose frees only its own state (its vertex-array objects), not the mesh's buffers.
+    const points = this.points.geometry;
+    points.deleteAttribute('position');
+    points.deleteAttribute('normal');
+    points.dispose();
   }
 }

@@ -263,7 +263,8 @@ export class PRTLighting {
     };
   }
 
-  /** The GPU resources; the meshes get their original materials back. */
+  /** Frees the GPU resources the plugin made (the file's own geometries, materials and textures stay
+   * the app's); the meshes get their original materials back. */
   dispose() {
     for (const { object, material, source, relight, occlusion } of this.baked) {
       object.material = object.userData.prtOriginalMaterial;
@@ -274,5 +275,6 @@ export class PRTLighting {
       if (occlusion) occlusion.dispose();
     }
     if (this.shadows) this.shadows.dispose();
+    if (this.specular) [this.specular.sky, this.specular.table].forEach((texture) => texture.dispose());
   }
 }

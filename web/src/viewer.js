@@ -13,6 +13,7 @@ import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
 import { PRTLightingPlugin } from './index.js';
+import { freeScene } from './free_scene.js';
 
 const $ = (id) => document.getElementById(id);
 const TURN_PER_PIXEL = 0.01; // radians
@@ -74,7 +75,10 @@ class Viewer {
       throw new Error(
         'this .glb has no PRT lighting (export it with PRT Lighting: File > Export > PRT Lighting); see the console',
       );
-    if (this.prt) this.prt.dispose();
+    if (this.prt) {
+      this.prt.dispose();
+      freeScene(this.model, this.background);
+    }
     this.scene = new THREE.Scene();
     this.scene.add(gltf.scene);
     this.prt = prt;

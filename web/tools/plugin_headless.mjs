@@ -3,9 +3,11 @@
 //   node web/tools/plugin_headless.mjs JOB.json
 //
 // JOB.json: {"chromium": executable, "out": prefix, "files": [{"name", "glb", "plugin": true, "options"}],
-//   "renders": [{options of pluginTest.render}]}. Writes PREFIX_<i>.bin per render (float32 or
-// uint8 RGBA, top row first) and prints a JSON summary: per file what the loader made of it and
-// the console messages its load printed, per render its file, and every request made.
+//   "renders": [{options of pluginTest.render}], "release": [names]}. Writes PREFIX_<i>.bin per
+// render (float32 or uint8 RGBA, top row first) and prints a JSON summary: per file what the
+// loader made of it and the console messages its load printed, per render its file, the
+// renderer's memory counts before anything was loaded and after each released file, and every
+// request made.
 import fs from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath, pathToFileURL } from 'node:url';
@@ -32,6 +34,7 @@ fs.writeFileSync(
 const summary = { files: {}, renders: [], console: [], requests: [] };
 await withPage(job.chromium, path.dirname(job.out), summary, async (page) => {
   await page.goto(pathToFileURL(html).href, { waitUntil: 'load' });
+  summary.memory = await page.evaluate(() => window.pluginTest.memory());
   for (const file of job.files) {
     const before = summary.console.length;
     const data = fs.readFileSync(file.glb).toString('base64');
@@ -54,5 +57,8 @@ await withPage(job.chromium, path.dirname(job.out), summary, async (page) => {
     fs.writeFileSync(file, Buffer.from(b64, 'base64'));
     summary.renders.push({ file });
   }
+  summary.released = {};
+  for (const name of job.release || [])
+    summary.released[name] = await page.evaluate((n) => window.pluginTest.release(n), name);
 });
 console.log(JSON.stringify(summary));

@@ -5,10 +5,13 @@
 // render(options) draws the app's scene (optionally an ordinary lit sphere, the app's lights, the
 // file turned by `spin` about up, its background) into a float target (linear, no tone mapping) or to the canvas (the
 // renderer's tone mapping and sRGB output) and returns the RGBA pixels as base64 (float32 or
-// bytes, top row first); describe(name) says what the loader made of the file's meshes.
+// bytes, top row first); describe(name) says what the loader made of the file's meshes;
+// release(name) frees the file as an app would (the plugin's dispose(), then the scene's own
+// geometries, materials and textures) and returns the renderer's count of what it still holds.
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
 import { PRTLightingPlugin } from '../src/index.js';
+import { freeScene } from '../src/free_scene.js';
 
 const renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true });
 document.body.appendChild(renderer.domElement);
@@ -133,4 +136,12 @@ function render({
   return toBase64(out);
 }
 
-window.pluginTest = { load, render, describe };
+function release(name) {
+  const { gltf, background } = files[name];
+  if (gltf.userData.prt) gltf.userData.prt.dispose();
+  freeScene(gltf.scene, background);
+  delete files[name];
+  return { ...renderer.info.memory };
+}
+
+window.pluginTest = { load, render, describe, release, memory: () => ({ ...renderer.info.memory }) };

@@ -75,7 +75,8 @@ export class PRTLighting {
   /** The file's world (its EXT_lights_image_based cube) as a background mesh, turned with the lighting. */
   createBackground(): Promise<Mesh | null>;
   info(): PRTInfo;
-  /** Frees the GPU resources and gives the meshes their original materials back. */
+  /** Frees the GPU resources the plugin made and gives the meshes their original materials back;
+   * the file's own geometries, materials, textures and the background mesh stay the app's to free. */
   dispose(): void;
 }
 
