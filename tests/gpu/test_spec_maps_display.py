@@ -136,23 +136,6 @@ def test_fallbacks_draw_the_constants(bpy_module, sphere, tmp_path):
     assert np.abs(clamped - ends)[covered].max() < 1e-3 * ends[covered].max()
 
 
-def _ior_material(bpy, name, values):
-    """A glossy dielectric whose IOR is a float image's Color (its luminance: grey `values` by
-    halves of u, per quadrant key)."""
-    image = bpy.data.images.new(f"{name}_image", maps.SIZE, maps.SIZE, float_buffer=True)
-    image.colorspace_settings.name = "Non-Color"
-    px = np.ones((maps.SIZE, maps.SIZE, 4), np.float32)
-    half = maps.SIZE // 2
-    for (u, v), x in values.items():
-        px[v * half : (v + 1) * half, u * half : (u + 1) * half, :3] = x
-    image.pixels.foreach_set(px.ravel())
-    material, bsdf = maps.principled(bpy, name, roughness=0.2, metallic=0.0)
-    tex = material.node_tree.nodes.new("ShaderNodeTexImage")
-    tex.image = image
-    material.node_tree.links.new(tex.outputs["Color"], bsdf.inputs["IOR"])
-    return material
-
-
 def test_an_ior_map_draws_each_half_as_its_constant(bpy_module, sphere):
     """IOR from a float image's Color (1.2 and 2.0 by halves of u) on a glossy dielectric: each half
     as the sphere drawn with that constant IOR (the dielectric F0 per pixel), within 1 % of its mean;
@@ -166,7 +149,7 @@ def test_an_ior_map_draws_each_half_as_its_constant(bpy_module, sphere):
     masks = _quadrant_pixels(bpy, scene, obj)
     scene.prt_display.specular = True
     iors = {q: (1.2 if q[0] == 0 else 2.0) for q in maps.QUADRANTS}
-    _use(obj, _ior_material(bpy, "ior", iors))
+    _use(obj, maps.socket_material(bpy, "ior", maps.halves_image(bpy, "iors", 1.2, 2.0), "IOR")[0])
     drawn = api.render_view(scene)[..., :3]
     constants = {}
     for ior in (1.2, 2.0):
@@ -184,9 +167,9 @@ def test_an_ior_map_draws_each_half_as_its_constant(bpy_module, sphere):
             f"{q} IOR {ior}: {100 * error:.3f} % at most, {100 * mean_error:.4f} % on average; apart {100 * apart:.1f} %"
         )
         assert error < 0.01 and mean_error < 0.0005 and apart > 0.03, (q, error, apart)
-    _use(obj, _ior_material(bpy, "below", {q: 0.5 for q in maps.QUADRANTS}))
+    _use(obj, maps.socket_material(bpy, "below", maps.halves_image(bpy, "below", 0.5, 0.5), "IOR")[0])
     below = api.render_view(scene)
-    assert "image 'below_image': values below 1 clamped" in notes(obj)
+    assert "image 'below': values below 1 clamped" in notes(obj)
     no_reflection, no_bsdf = maps.principled(bpy, "level0", roughness=0.2, metallic=0.0)
     no_bsdf.inputs["Specular IOR Level"].default_value = 0.0
     _use(obj, no_reflection)
