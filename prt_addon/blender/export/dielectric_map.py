@@ -14,6 +14,7 @@ import numpy as np
 
 from ...core.specular import brdf
 from ...core.transfer import image_sampling
+from ..scene.albedo_source import mesh_source
 from ..scene.principled_maps import RANGES, map_pixels, mesh_maps
 
 LEVEL, IOR = 2, 3  # (their places in principled_maps.INPUTS)
@@ -67,10 +68,12 @@ def f0_pixels(maps):
 def f0_block(material, mesh, append):
     """The `f0_map` extras of `material` on `mesh` (its maps' UV map as the TEXCOORD index Blender's
     exporter writes: the map's index in uv_layers), the texels (float16, row 0 glTF's v = 0, the
-    image's top) appended by `append(bytes) -> bufferView index`; None without a level or IOR image."""
+    image's top) appended by `append(bytes) -> bufferView index`; None without a level or IOR image
+    the viewport draws (the same fallbacks: scene.principled_maps.mesh_maps, beside the base colour's UV map)."""
     if material is None or mesh is None:
         return None
-    maps = mesh_maps(material, mesh)
+    albedo = mesh_source(material, mesh)
+    maps = mesh_maps(material, mesh, albedo.uv_map if albedo.kind == "IMAGE" else None)
     found = f0_pixels(maps) if maps.any else None
     if found is None:
         return None
