@@ -1,11 +1,12 @@
-"""Principled maps benchmark: the frame cost of a sphere whose Roughness and Metallic come from an image, against the same sphere with constants.
+"""Principled maps benchmark: the frame cost of a sphere whose Roughness and Metallic, or IOR, come from an image, against the same sphere with constants.
 
     .venv/bin/python benchmarks/bench_spec_maps.py [--triangles 200000] [--frames 11] [--size 512] [--order 8]
 
-Three copies of one UV sphere, drawn one at a time in turn, frame by frame in one run (each frame
+Four copies of one UV sphere, drawn one at a time in turn, frame by frame in one run (each frame
 synchronised by reading a pixel back): constant roughness and metallic; the same with an image on
 its Base Color (the textured per-corner draw the maps also use); Roughness and Metallic from a
-metallic-roughness image (docs/specular.md). Ratios are what to read (llvmpipe on 2 busy cores).
+metallic-roughness image; IOR from an image (docs/specular.md). Ratios are what to read (llvmpipe
+on 2 busy cores), with the range of each variant's ratio over the frames' rounds.
 """
 
 import argparse
@@ -67,6 +68,9 @@ def main():
         "constant": sphere("constant", args.triangles, maps.principled(bpy, "constant", roughness=0.5)[0]),
         "base colour image": sphere("textured", args.triangles, textured),
         "roughness and metallic image": sphere("mapped", args.triangles, maps.orm_material(bpy, orm)[0]),
+        "IOR image": sphere(
+            "ior", args.triangles, maps.socket_material(bpy, "ior", maps.halves_image(bpy, "iors", 1.2, 2.0), "IOR")[0]
+        ),
     }
     for obj in objects.values():
         write_transfer(obj, args.order)
@@ -100,7 +104,11 @@ def main():
     base = statistics.median(times["constant"])
     for name, values in times.items():
         ms = statistics.median(values)
-        print(f"{name:>30}: {ms * 1e3:8.1f} ms  {ms / base:5.2f}x the constant")
+        rounds = sorted(v / c for v, c in zip(values, times["constant"]))
+        print(
+            f"{name:>30}: {ms * 1e3:8.1f} ms  {ms / base:5.2f}x the constant "
+            f"(per round {rounds[0]:.2f}-{rounds[-1]:.2f}, median {statistics.median(rounds):.2f})"
+        )
     prt_addon.unregister()
 
 

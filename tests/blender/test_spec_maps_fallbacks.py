@@ -1,4 +1,4 @@
-"""Which Roughness / Metallic / Specular IOR Level links are read as images, and what each bad input falls back to and says: a missing file, a packed image, UDIM tiles, an sRGB image, values outside 0 to 1, no node tree, other nodes, no UV map, two UV maps."""
+"""Which Roughness / Metallic / Specular IOR Level / IOR links are read as images, and what each bad input falls back to and says: a missing file, a packed image, UDIM tiles, an sRGB image, values outside 0 to 1, no node tree, other nodes, no UV map, two UV maps."""
 
 import numpy as np
 import pytest
@@ -46,8 +46,8 @@ def test_the_links_read(bpy_module, empty_scene):
     bpy = bpy_module
     image = maps.orm_image(bpy)
     found, says = _read(bpy, maps.orm_material(bpy, image)[0])
-    rough, metal, level = found.inputs
-    assert (rough.channel, metal.channel, level) == (1, 2, None) and rough.image == image and says == []
+    rough, metal, level, ior = found.inputs
+    assert (rough.channel, metal.channel, level, ior) == (1, 2, None, None) and rough.image == image and says == []
     assert found.uv_map == "UVMap" and rough.uv_map == metal.uv_map == "UVMap"
     mat, _tex, bsdf = _linked(bpy, _data_image(bpy), "Specular IOR Level", "Alpha")
     math = mat.node_tree.nodes.new("ShaderNodeMath")
@@ -59,8 +59,8 @@ def test_the_links_read(bpy_module, empty_scene):
     mat.node_tree.links.new(tex.outputs["Color"], math.inputs[0])
     mat.node_tree.links.new(math.outputs[0], bsdf.inputs["Metallic"])
     found, says = _read(bpy, mat)
-    rough, metal, level = found.inputs
-    assert rough is None and level.channel == ALPHA and says == []
+    rough, metal, level, ior = found.inputs
+    assert rough is None and ior is None and level.channel == ALPHA and says == []
     assert metal.channel == LUMINANCE and metal.factor == pytest.approx(0.25) and metal.sampling == (1, 3)
 
 
@@ -89,6 +89,37 @@ def test_the_pixels_read(bpy_module, empty_scene, tmp_path):
     assert map_pixels(hdr, 0, upper=np.inf)[0][0, 0] == pytest.approx(3.0)  # (Specular IOR Level)
 
 
+def test_an_ior_image_is_read_and_clamped_below_1(bpy_module, empty_scene):
+    """IOR from an image's Red through Separate Color and Math Multiply by 4: the fourth input,
+    its value the channel times 4, values below 1 clamped to 1 and told (none above)."""
+    from prt_addon.blender.scene.principled_maps import RANGES, map_pixels
+
+    bpy = bpy_module
+    image = _data_image(bpy, size=2)
+    image.pixels.foreach_set(
+        np.repeat(np.array([[0.2, 0.0, 0.0, 1.0], [0.6, 0.0, 0.0, 1.0]], np.float32), 2, 0).ravel()
+    )
+    mat, bsdf = maps.principled(bpy, "ior")
+    tree = mat.node_tree
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    sep = tree.nodes.new("ShaderNodeSeparateColor")
+    math = tree.nodes.new("ShaderNodeMath")
+    math.operation = "MULTIPLY"
+    math.inputs[1].default_value = 4.0
+    tree.links.new(tex.outputs["Color"], sep.inputs[0])
+    tree.links.new(sep.outputs["Red"], math.inputs[0])
+    tree.links.new(math.outputs[0], bsdf.inputs["IOR"])
+    found, says = _read(bpy, mat)
+    assert found.inputs[:3] == (None, None, None) and says == []
+    ior = found.inputs[3]
+    assert (ior.channel, ior.factor, ior.image) == (0, pytest.approx(4.0), image)
+    values, note = map_pixels(image, ior.channel, ior.factor, RANGES[3][1], RANGES[3][0])
+    byte = lambda x: np.round(np.array(x) * 255) / 255
+    assert values[0, 0] == 1.0 and values[1, 0] == pytest.approx(4.0 * byte(0.6), abs=1e-5)
+    assert note == "image 'data': values below 1 clamped"
+
+
 def test_packed_image_is_read(bpy_module, empty_scene, tmp_path):
     from prt_addon.blender.scene.principled_maps import map_pixels
 
@@ -104,8 +135,9 @@ def test_packed_image_is_read(bpy_module, empty_scene, tmp_path):
     assert red[0, 0] == 1.0 and red[0, -1] == 0.0
 
 
+@pytest.mark.parametrize("socket", ["Roughness", "IOR"])
 @pytest.mark.parametrize("case", ["missing", "udim", "no_image", "no_uv", "other_uv", "noise", "vector"])
-def test_bad_inputs_draw_the_constant_and_tell(bpy_module, empty_scene, tmp_path, case):
+def test_bad_inputs_draw_the_constant_and_tell(bpy_module, empty_scene, tmp_path, case, socket):
     bpy = bpy_module
     image = _data_image(bpy)
     if case == "missing":
@@ -115,7 +147,7 @@ def test_bad_inputs_draw_the_constant_and_tell(bpy_module, empty_scene, tmp_path
         image.reload()
     elif case == "udim":
         image = bpy.data.images.new("tiles", 4, 4, tiled=True)
-    mat, tex, bsdf = _linked(bpy, image)
+    mat, tex, bsdf = _linked(bpy, image, socket)
     tree = mat.node_tree
     if case == "no_image":
         tex.image = None
@@ -125,13 +157,13 @@ def test_bad_inputs_draw_the_constant_and_tell(bpy_module, empty_scene, tmp_path
         tree.links.new(uv.outputs["UV"], tex.inputs["Vector"])
     elif case == "noise":
         noise = tree.nodes.new("ShaderNodeTexNoise")
-        tree.links.new(noise.outputs["Fac"], bsdf.inputs["Roughness"])
+        tree.links.new(noise.outputs["Fac"], bsdf.inputs[socket])
     elif case == "vector":
         coords = tree.nodes.new("ShaderNodeTexCoord")
         tree.links.new(coords.outputs["Generated"], tex.inputs["Vector"])
     found, says = _read(bpy, mat, uv=case != "no_uv")
-    assert found.inputs == (None, None, None) and len(says) == 1, says
-    assert says[0].startswith("'mat' Roughness: ") and says[0].endswith("its constant is used")
+    assert found.inputs == (None, None, None, None) and len(says) == 1, says
+    assert says[0].startswith(f"'mat' {socket}: ") and says[0].endswith("its constant is used")
     expected = {
         "missing": "'gone' has no pixels",
         "udim": "UDIM tiles are not read",

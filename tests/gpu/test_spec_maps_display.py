@@ -134,3 +134,45 @@ def test_fallbacks_draw_the_constants(bpy_module, sphere, tmp_path):
     ends = api.render_view(scene)
     covered = ends[..., 3] > 0.99
     assert np.abs(clamped - ends)[covered].max() < 1e-3 * ends[covered].max()
+
+
+def test_an_ior_map_draws_each_half_as_its_constant(bpy_module, sphere):
+    """IOR from a float image's Color (1.2 and 2.0 by halves of u) on a glossy dielectric: each half
+    as the sphere drawn with that constant IOR (the dielectric F0 per pixel), within 1 % of its mean;
+    the two IORs differ by more than 3 % there. An image of IOR 0.5 draws as IOR 1 (clamped: no
+    dielectric reflection, the constant level 0's pixels) and the panel says so."""
+    import prt_addon.api as api
+    from prt_addon.blender.display.material_maps import notes
+
+    bpy = bpy_module
+    scene, obj = sphere
+    masks = _quadrant_pixels(bpy, scene, obj)
+    scene.prt_display.specular = True
+    iors = {q: (1.2 if q[0] == 0 else 2.0) for q in maps.QUADRANTS}
+    _use(obj, maps.socket_material(bpy, "ior", maps.halves_image(bpy, "iors", 1.2, 2.0), "IOR")[0])
+    drawn = api.render_view(scene)[..., :3]
+    constants = {}
+    for ior in (1.2, 2.0):
+        constant, constant_bsdf = maps.principled(bpy, f"i{ior}", roughness=0.2, metallic=0.0)
+        constant_bsdf.inputs["IOR"].default_value = ior
+        _use(obj, constant)
+        constants[ior] = api.render_view(scene)[..., :3]
+    for q, ior in iors.items():
+        mask = masks[q]
+        expected, other = constants[ior][mask], constants[2.0 if ior == 1.2 else 1.2][mask]
+        error = np.abs(drawn[mask] - expected).max() / expected.mean()
+        mean_error = np.abs(drawn[mask] - expected).mean() / expected.mean()
+        apart = np.abs(other - expected).mean() / expected.mean()
+        print(
+            f"{q} IOR {ior}: {100 * error:.3f} % at most, {100 * mean_error:.4f} % on average; apart {100 * apart:.1f} %"
+        )
+        assert error < 0.01 and mean_error < 0.0005 and apart > 0.03, (q, error, apart)
+    _use(obj, maps.socket_material(bpy, "below", maps.halves_image(bpy, "below", 0.5, 0.5), "IOR")[0])
+    below = api.render_view(scene)
+    assert "image 'below': values below 1 clamped" in notes(obj)
+    no_reflection, no_bsdf = maps.principled(bpy, "level0", roughness=0.2, metallic=0.0)
+    no_bsdf.inputs["Specular IOR Level"].default_value = 0.0
+    _use(obj, no_reflection)
+    expected = api.render_view(scene)
+    covered = expected[..., 3] > 0.99
+    assert np.abs(below - expected)[covered].max() < 1e-3 * expected[covered].max()

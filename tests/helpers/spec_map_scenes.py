@@ -1,4 +1,4 @@
-"""Principled materials whose Roughness and Metallic come from an image (a packed metallic-roughness map), and the sphere they are drawn on."""
+"""Principled materials whose Roughness and Metallic (a packed metallic-roughness map), Specular IOR Level or IOR come from an image, and the sphere they are drawn on."""
 
 import numpy as np
 
@@ -50,6 +50,26 @@ def orm_material(bpy, image, name="mapped", base=(0.8, 0.8, 0.8)):
     tree.links.new(sep.outputs["Green"], bsdf.inputs["Roughness"])
     tree.links.new(sep.outputs["Blue"], bsdf.inputs["Metallic"])
     return mat, tex
+
+
+def halves_image(bpy, name, left, right, size=SIZE):
+    """A size x size float Non-Color image, grey `left` on u < 0.5 and `right` on the other half."""
+    image = bpy.data.images.new(name, size, size, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    px = np.ones((size, size, 4), np.float32)
+    px[:, : size // 2, :3] = left
+    px[:, size // 2 :, :3] = right
+    image.pixels.foreach_set(px.ravel())
+    return image
+
+
+def socket_material(bpy, name, image, socket, roughness=0.2):
+    """A glossy white-ish dielectric whose `socket` (Specular IOR Level, IOR) is `image`'s Color (its luminance)."""
+    material, bsdf = principled(bpy, name, roughness=roughness, metallic=0.0)
+    tex = material.node_tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    material.node_tree.links.new(tex.outputs["Color"], bsdf.inputs[socket])
+    return material, bsdf
 
 
 def id_material(bpy, image):

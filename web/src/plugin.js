@@ -17,7 +17,7 @@ import {
 } from './transfer_source.js';
 import { DEFAULT_ALBEDO, PRTLighting } from './prt_lighting.js';
 import { loadEnvironment } from './background.js';
-import { loadSpecular, readMaterial } from './specular.js';
+import { loadF0Map, loadSpecular, readMaterial } from './specular.js';
 
 export const EXTRAS_KEY = 'PRT_lighting';
 
@@ -65,6 +65,22 @@ export class PRTLightingPlugin {
     if (packed) return packed;
     const texture = geometryTransferSource(geometry, spec, this.options.maxTextureSize);
     return this.options.relight === false ? texture : relitTransferSource(texture);
+  }
+
+  /** Each baked material's dielectric F0 map (specular.js's loadF0Map; one texture per bufferView);
+   * one that cannot be read is said, and its material's constant F0 drawn. */
+  async loadF0Maps(baked) {
+    const textures = new Map();
+    for (const { constants } of baked) {
+      const block = constants && constants.f0Block;
+      if (!block) continue;
+      if (!textures.has(block.bufferView)) textures.set(block.bufferView, loadF0Map(this.parser, block));
+      try {
+        constants.f0Map = await textures.get(block.bufferView);
+      } catch (error) {
+        say('error', `a material's F0 map cannot be read (${error.message}); its constant F0 is drawn`);
+      }
+    }
   }
 
   async afterRoot(gltf) {
@@ -132,6 +148,7 @@ export class PRTLightingPlugin {
       } catch (error) {
         say('error', `the specular data cannot be read (${error.message}); drawn diffuse only`);
       }
+      if (specular) await this.loadF0Maps(baked);
     }
     try {
       this.prt = new PRTLighting({ lighting, baked, casters, exposure: this.options.exposure, specular });

@@ -21,7 +21,7 @@ import {
   WIDE_MAX_RADIUS,
   WIDE_PCF_TAPS,
 } from './shadows.js';
-import { SPECULAR_FRAGMENT, mappedFragment, specularUniforms, specularVertex } from './specular.js';
+import { SPECULAR_FRAGMENT, mappedFragment, specularUniforms, specularVertex, surfaceSpecular } from './specular.js';
 
 // The sum unrolled (k constant, so a source's fetch(k) can name an attribute). A bounced bake
 // (Blender's bake.md, "Interreflection") has `channels` more blocks of `count` vec4s after the
@@ -60,11 +60,13 @@ ${transferSum(count, channels, source)}
 // map's UV channel, through its texture transform; an sRGB map decoded by the GPU as three.js
 // uploads it) and its vertex colours, multiplying the diffuse and the split lights' light.
 // The glossy material's roughness and metalness maps (three.js's convention for glTF's
-// metallicRoughnessTexture: roughness in G, metalness in B), each on its own UV channel and transform.
+// metallicRoughnessTexture: roughness in G, metalness in B), each on its own UV channel and transform,
+// and the file's dielectric F0 map (specular.js's loadF0Map) on its TEXCOORD.
 const SURFACE_MAPS = [
   ['map', 'prtMap'],
   ['roughMap', 'prtRough'],
   ['metalMap', 'prtMetal'],
+  ['f0Map', 'prtF0'],
 ];
 
 function surfaceVertex(surface, source) {
@@ -87,29 +89,6 @@ function surfaceUvs(surface) {
   return SURFACE_MAPS.filter(([key]) => surface[key])
     .map(([, name]) => `  ${name}Uv = ${name.toUpperCase()}_UV;`)
     .join('\n');
-}
-
-// Per pixel the glossy material's roughness and metallic: its maps' G and B times the glTF
-// factors (three.js's roughness and metalness), or the file's constants.
-function surfaceSpecular(surface) {
-  const lines = [];
-  if (surface.roughMap)
-    lines.push('uniform sampler2D prtRoughMap;', 'uniform float prtRoughFactor;', 'varying vec2 prtRoughUv;');
-  if (surface.metalMap)
-    lines.push('uniform sampler2D prtMetalMap;', 'uniform float prtMetalFactor;', 'varying vec2 prtMetalUv;');
-  lines.push('void prtSurfaceInputs() {');
-  lines.push(
-    surface.roughMap
-      ? '  prtRoughness = clamp(prtRoughFactor * texture2D(prtRoughMap, prtRoughUv).g, 0.0, 1.0);'
-      : '  prtRoughness = prtSurface.x;',
-  );
-  lines.push(
-    surface.metalMap
-      ? '  prtMetallic = clamp(prtMetalFactor * texture2D(prtMetalMap, prtMetalUv).b, 0.0, 1.0);'
-      : '  prtMetallic = prtSurface.y;',
-  );
-  lines.push('}');
-  return lines.join('\n');
 }
 
 function surfaceFragment(surface) {
@@ -336,9 +315,10 @@ export function prtMaterial({
     map: surface.map || null,
     roughMap: (mapped.includes('roughness') && surface.roughnessMap) || null,
     metalMap: (mapped.includes('metallic') && surface.metalnessMap) || null,
+    f0Map: (glossy && glossy.constants.f0Map) || null,
     vertexColors: Boolean(surface.vertexColors),
   };
-  base.paired = Boolean(glossy && glossy.constants.bands2 && (base.roughMap || base.metalMap));
+  base.paired = Boolean(glossy && glossy.constants.bands2 && (base.roughMap || base.metalMap || base.f0Map));
   if (source.stage !== 'vertex' && source.stage !== 'texel')
     throw new Error(`a '${source.stage}' transfer source is not supported`);
   const count = source.count;
@@ -369,6 +349,7 @@ export function prtMaterial({
           prtMetalFactor: { value: surface.metalness ?? 1 },
         }
       : {}),
+    ...(base.f0Map ? { prtF0Map: { value: base.f0Map }, prtF0Transform: { value: base.f0Map.matrix } } : {}),
     ...(glossy ? specularUniforms(shared, glossy.constants) : {}),
   };
   if (views) {

@@ -77,10 +77,34 @@ export async function loadSpecular(parser, block) {
   };
 }
 
+const WRAPS = { REPEAT: THREE.RepeatWrapping, MIRROR: THREE.MirroredRepeatWrapping };
+
+/** The per-pixel dielectric F0 of a material whose Specular IOR Level or IOR Blender reads from an
+ * image (its extras' `f0_map`, docs/export.md: float16 texels, row 0 at v = 0) as a red half-float
+ * texture on its TEXCOORD (`channel`), filtered and wrapped as the image's node samples it (Clip
+ * as Extend); null without. */
+export async function loadF0Map(parser, block) {
+  if (!block) return null;
+  const { width, height } = block;
+  const data = await parser.getDependency('bufferView', block.bufferView);
+  if (block.format !== 'float16_r' || !(width > 0 && height > 0) || data.byteLength < width * height * 2)
+    throw new Error('the dielectric F0 map is not float16 texels of its size');
+  const texels = new Uint16Array(data.slice(0, width * height * 2));
+  const texture = new THREE.DataTexture(texels, width, height, THREE.RedFormat, THREE.HalfFloatType);
+  texture.minFilter = texture.magFilter = block.interpolation === 'CLOSEST' ? THREE.NearestFilter : THREE.LinearFilter;
+  texture.wrapS = texture.wrapT = WRAPS[block.extension] ?? THREE.ClampToEdgeWrapping;
+  texture.generateMipmaps = false;
+  texture.unpackAlignment = 2;
+  texture.channel = Number(block.texCoord) || 0;
+  texture.needsUpdate = true;
+  return texture;
+}
+
 /** A material's constants (its PRT_lighting extras) or null: {roughness, metallic, f0, bands, open,
- * maps: the inputs Blender reads from an image ('roughness', 'metallic'), and with them range (the
- * roughness image's smallest and largest value), bands2 and open2 (the lobe at the largest; bands
- * and open are at the smallest)}. */
+ * maps: the inputs Blender reads from an image ('roughness', 'metallic'), f0Block: the extras'
+ * `f0_map` when its Specular IOR Level or IOR comes from an image (loadF0Map makes it f0Map), and
+ * with either range (the roughness image's smallest and largest value), bands2 and open2 (the lobe
+ * at the largest; bands and open are at the smallest)}. */
 export function readMaterial(extras) {
   if (!extras || !Array.isArray(extras.lobe_bands) || !Array.isArray(extras.lobe_open)) return null;
   const vec4s = (values) =>
@@ -89,7 +113,9 @@ export function readMaterial(extras) {
       (_v, k) => new THREE.Vector4(...[0, 1, 2, 3].map((j) => Number(values[4 * k + j] || 0))),
     );
   const maps = Array.isArray(extras.maps) ? extras.maps.filter((m) => m === 'roughness' || m === 'metallic') : [];
-  const paired = maps.length && Array.isArray(extras.lobe_bands2) && Array.isArray(extras.lobe_open2);
+  const f0Block = extras.f0_map && typeof extras.f0_map === 'object' ? extras.f0_map : null;
+  const paired =
+    Boolean(maps.length || f0Block) && Array.isArray(extras.lobe_bands2) && Array.isArray(extras.lobe_open2);
   const range = Array.isArray(extras.roughness_range) ? extras.roughness_range.map(Number) : [0, 0];
   return {
     roughness: Number(extras.roughness),
@@ -98,6 +124,8 @@ export function readMaterial(extras) {
     bands: vec4s(extras.lobe_bands),
     open: vec4s(extras.lobe_open),
     maps: paired ? maps : [],
+    f0Block: paired ? f0Block : null,
+    f0Map: null,
     range: new THREE.Vector2(range[0] || 0, range[1] || 0),
     bands2: paired ? vec4s(extras.lobe_bands2) : null,
     open2: paired ? vec4s(extras.lobe_open2) : null,
@@ -141,19 +169,46 @@ export function specularVertex(source, paired = false) {
   return lines.join('\n');
 }
 
-/** SPECULAR_FRAGMENT with the roughness and metallic per pixel (prtRoughness, prtMetallic, set
- * before prtSpecularSetup) and the two lobes' occlusion mixed by the roughness. */
+/** SPECULAR_FRAGMENT with the roughness, metallic and dielectric F0 per pixel (prtRoughness,
+ * prtMetallic, prtF0d, set before prtSpecularSetup) and the two lobes' occlusion mixed by the roughness. */
 export function mappedFragment() {
   const occ = 'clamp(prtSpecOcc, 0.0, 1.0)';
   return (
-    'float prtRoughness;\nfloat prtMetallic;\nuniform vec2 prtRoughRange;\nvarying float prtSpecOcc2;\n' +
+    'float prtRoughness;\nfloat prtMetallic;\nfloat prtF0d;\nuniform vec2 prtRoughRange;\nvarying float prtSpecOcc2;\n' +
     SPECULAR_FRAGMENT.replace(
       occ,
       'clamp(mix(prtSpecOcc, prtSpecOcc2, clamp((prtRoughness - prtRoughRange.x) / max(prtRoughRange.y - prtRoughRange.x, 1e-6), 0.0, 1.0)), 0.0, 1.0)',
     )
       .replace(/prtSurface\.x/g, 'prtRoughness')
       .replace(/prtSurface\.y/g, 'prtMetallic')
+      .replace(/prtSurface\.z/g, 'prtF0d')
   );
+}
+
+// Per pixel the glossy material's roughness and metallic: its maps' G and B times the glTF
+// factors (three.js's roughness and metalness), or the file's constants; its dielectric F0 the
+// F0 map's red, or the file's constant.
+export function surfaceSpecular(surface) {
+  const lines = [];
+  if (surface.f0Map) lines.push('uniform sampler2D prtF0Map;', 'varying vec2 prtF0Uv;');
+  if (surface.roughMap)
+    lines.push('uniform sampler2D prtRoughMap;', 'uniform float prtRoughFactor;', 'varying vec2 prtRoughUv;');
+  if (surface.metalMap)
+    lines.push('uniform sampler2D prtMetalMap;', 'uniform float prtMetalFactor;', 'varying vec2 prtMetalUv;');
+  lines.push('void prtSurfaceInputs() {');
+  lines.push(
+    surface.roughMap
+      ? '  prtRoughness = clamp(prtRoughFactor * texture2D(prtRoughMap, prtRoughUv).g, 0.0, 1.0);'
+      : '  prtRoughness = prtSurface.x;',
+  );
+  lines.push(
+    surface.metalMap
+      ? '  prtMetallic = clamp(prtMetalFactor * texture2D(prtMetalMap, prtMetalUv).b, 0.0, 1.0);'
+      : '  prtMetallic = prtSurface.y;',
+  );
+  lines.push(surface.f0Map ? '  prtF0d = texture2D(prtF0Map, prtF0Uv).r;' : '  prtF0d = prtSurface.z;');
+  lines.push('}');
+  return lines.join('\n');
 }
 
 /** Fragment GLSL: the sky, the table, the lobe's albedo, the occlusion, the shading (spec_shade). */

@@ -1,10 +1,11 @@
-"""Roughness, Metallic and Specular IOR Level images in the Principled specular: textures, GLSL, per-slot data.
+"""Roughness, Metallic, Specular IOR Level and IOR images in the Principled specular: textures, GLSL, per-slot data.
 
 A slot whose Principled BSDF takes one of these from an image (scene.principled_maps) is drawn
 with the textured shader's UV (albedo_texture) and a variant of the specular shader
 (shader.get_shader(spec_maps=True)): per pixel, each mapped input is its image's channel looked
 up as the node samples it (albedo_texture.sampler_glsl), the others the slot's constants; the
-dielectric F0 is ((IOR - 1) / (IOR + 1))^2 x 2 x level. The full transfer's occlusion (per
+dielectric F0 is ((IOR - 1) / (IOR + 1))^2 x 2 x level, IOR and level each the pixel's or the
+constant. The full transfer's occlusion (per
 vertex, shader_specular.occlusion_lines) is computed for two lobes, at the smallest and the
 largest roughness of the slot's image, and mixed per pixel linearly in roughness between them
 (exact for an image of two values). Without a map the shader and its output are as before.
@@ -18,12 +19,11 @@ import numpy as np
 from ...core.specular import occlusion
 from .. import caches
 from ..scene.albedo_source import slot_sources
-from ..scene.principled_maps import map_pixels, mesh_maps
+from ..scene.principled_maps import RANGES, map_pixels, mesh_maps
 from . import albedo_texture, shader_specular
 
-NAMES = ("rough", "metal", "level")
-SLOTS = (6, 7, 8)  # sampler slots (albedo_texture.ALBEDO_SLOT is 5, the colour table 9)
-UPPER = (1.0, 1.0, np.inf)  # the inputs' ranges: Specular IOR Level has no upper bound
+NAMES = ("rough", "metal", "level", "ior")
+SLOTS = (6, 7, 8, 10)  # sampler slots (albedo_texture.ALBEDO_SLOT is 5, the colour table 9)
 
 GLSL = (
     """
@@ -34,6 +34,7 @@ float spec_occ_t;
 ivec2 rough_mode;
 ivec2 metal_mode;
 ivec2 level_mode;
+ivec2 ior_mode;
 """
     + "".join(albedo_texture.sampler_glsl(name) for name in NAMES)
     + """
@@ -45,16 +46,24 @@ void spec_maps_setup()
   rough_mode = ivec2(spec.maps[0].yz);
   metal_mode = ivec2(spec.maps[1].yz);
   level_mode = ivec2(spec.maps[2].yz);
+  ior_mode = ivec2(spec.maps[3].yz);
   if (spec.maps[0].x > 0.5) {
     spec_roughness = rough_at(albedo_uv).r;
   }
   if (spec.maps[1].x > 0.5) {
     spec_metallic = metal_at(albedo_uv).r;
   }
-  if (spec.maps[2].x > 0.5) {
-    spec_f0d = clamp(spec.maps[3].x * level_at(albedo_uv).r, 0.0, 1.0);  // x: ((IOR - 1) / (IOR + 1))^2 x 2
+  if (spec.maps[2].x > 0.5 || spec.maps[3].x > 0.5) {
+    float per_level = spec.maps[4].x;  // ((IOR - 1) / (IOR + 1))^2 x 2 of the constant IOR
+    if (spec.maps[3].x > 0.5) {
+      float ior = ior_at(albedo_uv).r;
+      float r = (ior - 1.0) / (ior + 1.0);
+      per_level = 2.0 * r * r;
+    }
+    float level = spec.maps[2].x > 0.5 ? level_at(albedo_uv).r : spec.maps[4].w;
+    spec_f0d = clamp(per_level * level, 0.0, 1.0);
   }
-  spec_occ_t = clamp((spec_roughness - spec.maps[3].y) / max(spec.maps[3].z - spec.maps[3].y, 1e-6), 0.0, 1.0);
+  spec_occ_t = clamp((spec_roughness - spec.maps[4].y) / max(spec.maps[4].z - spec.maps[4].y, 1e-6), 0.0, 1.0);
 }
 """
 )
@@ -64,7 +73,7 @@ def ubo_source():
     """The PRTSpec struct with the second lobe's bands and the maps' block after its members."""
     base = shader_specular.UBO_SOURCE
     assert base.endswith(" };\n")
-    return base[: -len(" };\n")] + " vec4 bands2[8]; vec4 maps[4]; };\n"
+    return base[: -len(" };\n")] + " vec4 bands2[8]; vec4 maps[5]; };\n"
 
 
 def _vertex(vertex):
@@ -120,7 +129,8 @@ def map_texture(item, index):
     if max(item.image.size) > limit:
         note = f"image '{item.image.name}' is larger than {limit} pixels, the GPU's limit"
     else:
-        values, note = map_pixels(item.image, item.channel, item.factor, UPPER[index])
+        lower, upper = RANGES[index]
+        values, note = map_pixels(item.image, item.channel, item.factor, upper, lower)
         if values is not None:
             tex = albedo_texture.upload(np.repeat(values[..., None], 3, axis=2))
             span = (float(values.min()), float(values.max()))
@@ -146,10 +156,11 @@ def uv_maps(maps):
 
 def slot_data(maps, params):
     """(the triple bind_slot takes, its roughness the first lobe's; the extra PRTSpec bytes:
-    bands2, maps; per input its texture or None) of a slot with maps (params:
-    principled_specular's); an input without a readable image keeps its constant."""
+    bands2, maps (per input (1, interpolation, extension) or 0, then (F0 per level of the constant
+    IOR, the roughness span, the constant level)); per input its texture or None) of a slot with
+    maps (params: principled_specular's); an input without a readable image keeps its constant."""
     roughness, metallic, f0 = params
-    rows = np.zeros((12, 4))
+    rows = np.zeros((13, 4))
     span = (roughness, roughness)
     textures = []
     for index, item in enumerate(maps.inputs):
@@ -162,7 +173,7 @@ def slot_data(maps, params):
         rows[8 + index, :3] = (1.0, *item.sampling)
         if index == 0:
             span = values
-    rows[11, :3] = (maps.f0_per_level, *span)
+    rows[12] = (maps.f0_per_level, *span, maps.level)
     rows[0:8] = _bands(span[1]).reshape(8, 4)
     return (span[0], metallic, f0), rows.astype(np.float32).tobytes(), textures
 

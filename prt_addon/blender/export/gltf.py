@@ -370,7 +370,7 @@ def export_gltf(path, objects=None, scene=None, environment_size=ibl.DEFAULT_SIZ
         texels.annotate(document, chunks, texel, to_gltf_frame, texels.encoding_for(transfer), EXTRAS_KEY)
         if environment is not None:
             ibl.write(document, chunks, environment[0], environment[1], glb.CHUNK_BIN)
-        materials = {s.material.name: s.material for o, _b in plan for s in o.material_slots if s.material}
+        materials = {s.material.name: (s.material, o.data) for o, _b in plan for s in o.material_slots if s.material}
         if glossy is not None:
             specular.write(document, chunks, glb.CHUNK_BIN, glossy, materials, EXTRAS_KEY)
         glb.write(temp, document, chunks)

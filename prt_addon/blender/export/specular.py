@@ -19,6 +19,7 @@ from ..scene.principled import principled_specular
 from ..scene.principled_maps import map_pixels, principled_maps
 from ..world import light_split, nodes as _nodes, projection as _world
 from ..world.pixels import NeedsRender, read_image_pixels, render_world
+from .dielectric_map import f0_block
 
 BAND_COUNT = 32  # lobe bands per material: enough for any order the display draws
 # Blender (Z up) to glTF (Y up), as gltf.BLENDER_TO_GLTF.
@@ -72,7 +73,7 @@ def _mapped(material):
     its image or None)."""
     found = principled_maps(material)
     names, span = [], None
-    for name, item in zip(("roughness", "metallic", "specular_ior_level"), found.inputs):
+    for name, item in zip(("roughness", "metallic", "specular_ior_level", "ior"), found.inputs):
         if item is None or item.image.size[0] == 0 or item.image.size[1] == 0:
             continue
         names.append(name)
@@ -82,12 +83,14 @@ def _mapped(material):
     return names, span
 
 
-def material_extras(material):
+def material_extras(material, mesh=None, append=None):
     """The PRT_lighting extras of a Principled material, or None for any other. A material whose
-    Roughness or Metallic comes from an image (scene.principled_maps) also lists them in `maps`
-    (the plugin reads them from the file's metallicRoughnessTexture), and its roughness image's
-    range with the lobe at its largest value (`lobe_bands2`, `lobe_open2`; the first lobe is at
-    its smallest), as the viewport's occlusion mixes them."""
+    Roughness, Metallic, Specular IOR Level or IOR comes from an image (scene.principled_maps) also
+    lists them in `maps` (the plugin reads roughness and metallic from the file's
+    metallicRoughnessTexture, and the other two folded into `f0_map`, dielectric_map.f0_block,
+    on `mesh` with `append`), and its roughness image's range with the lobe at its largest value
+    (`lobe_bands2`, `lobe_open2`; the first lobe is at its smallest), as the viewport's occlusion
+    mixes them."""
     params = principled_specular(material)
     if params is None:
         return None
@@ -102,6 +105,9 @@ def material_extras(material):
         extras["maps"] = names
         extras["roughness_range"] = list(span)
         extras["lobe_bands2"], extras["lobe_open2"] = _lobe(span[1])
+        f0_map = f0_block(material, mesh, append) if append is not None else None
+        if f0_map is not None:
+            extras["f0_map"] = f0_map
     return extras
 
 
@@ -139,7 +145,7 @@ def prepare(scene):
 def write(document, chunks, chunk_bin, prepared, materials, key):
     """Add the specular data (prepare's): the sky levels and the table to the BIN chunk (changed
     in place) and the scene extras[key]["specular"]; each glTF material named after a Principled
-    material of `materials` ({name: Blender material}) gets extras[key]."""
+    material of `materials` ({name: (Blender material, a mesh using it)}) gets extras[key]."""
     levels, rows, table = prepared
     count, height, width, _ = levels.shape
     sky_view = _append(document, chunks, chunk_bin, levels.astype("<f2").tobytes())
@@ -152,7 +158,8 @@ def write(document, chunks, chunk_bin, prepared, materials, key):
     for gltf_scene in document.get("scenes", []):
         gltf_scene.setdefault("extras", {}).setdefault(key, {})["specular"] = block
     for gltf_material in document.get("materials", []):
-        extras = material_extras(materials.get(gltf_material.get("name")))
+        material, mesh = materials.get(gltf_material.get("name"), (None, None))
+        extras = material_extras(material, mesh, lambda data: _append(document, chunks, chunk_bin, data))
         if extras is not None:
             own = gltf_material.get("extras")
             gltf_material["extras"] = own if isinstance(own, dict) else {}

@@ -1,4 +1,4 @@
-"""Where a Principled BSDF's Roughness, Metallic and Specular IOR Level come from: a constant or an image channel."""
+"""Where a Principled BSDF's Roughness, Metallic, Specular IOR Level and IOR come from: a constant or an image."""
 
 from dataclasses import dataclass, replace
 
@@ -7,7 +7,9 @@ import numpy as np
 from .albedo_source import EXTENSION_MODES, INTERPOLATION_MODES, LINEAR_SPACES, linear_rgb, raw_pixels
 from .materials import active_output
 
-INPUTS = ("Roughness", "Metallic", "Specular IOR Level")
+INPUTS = ("Roughness", "Metallic", "Specular IOR Level", "IOR")
+# Per input the range its values are clamped to: IOR below 1 is 1, Specular IOR Level and IOR unbounded above.
+RANGES = ((0.0, 1.0), (0.0, 1.0), (0.0, np.inf), (1.0, np.inf))
 LUMINANCE = -1  # an Image Texture's Color on a float socket: Blender converts it to its luminance
 ALPHA = 3
 # Rec.709 luminance: Blender's colour -> float conversion in its default (Rec.709) scene space.
@@ -36,10 +38,11 @@ class SlotMaps:
     """Per INPUTS entry a MapInput or None (the constant); uv_map: the maps' one UV map; notes:
     why a linked input is drawn as its constant, and what its image says."""
 
-    inputs: tuple = (None, None, None)
+    inputs: tuple = (None, None, None, None)
     uv_map: str = ""
     notes: tuple = ()
-    f0_per_level: float = 0.08  # ((IOR - 1) / (IOR + 1))^2 x 2: the dielectric F0 at level 1
+    f0_per_level: float = 0.08  # ((IOR - 1) / (IOR + 1))^2 x 2 of the constant IOR: the dielectric F0 at level 1
+    level: float = 0.5  # the constant Specular IOR Level (at least 0)
 
     @property
     def any(self):
@@ -110,7 +113,7 @@ def socket_map(socket, where):
 
 
 def principled_maps(material):
-    """The SlotMaps of a material: which of Roughness, Metallic and Specular IOR Level of the
+    """The SlotMaps of a material: which of Roughness, Metallic, Specular IOR Level and IOR of the
     Principled BSDF feeding its active output come from an image; every other link is drawn as its
     socket's constant, with a note."""
     node = _principled(material)
@@ -123,9 +126,14 @@ def principled_maps(material):
         inputs.append(found)
         if note:
             notes.append(note + "; its constant is used")
-    ior = node.inputs.get("IOR")
-    ior = max(float(ior.default_value), 1.0) if ior is not None and hasattr(ior, "default_value") else 1.5
-    return SlotMaps(tuple(inputs), "", tuple(notes), ((ior - 1.0) / (ior + 1.0)) ** 2 * 2.0)
+    ior, level = (_constant(node, name, default) for name, default in (("IOR", 1.5), ("Specular IOR Level", 0.5)))
+    ior, level = max(ior, 1.0), max(level, 0.0)
+    return SlotMaps(tuple(inputs), "", tuple(notes), ((ior - 1.0) / (ior + 1.0)) ** 2 * 2.0, level)
+
+
+def _constant(node, name, default):
+    sock = node.inputs.get(name)
+    return float(sock.default_value) if sock is not None and hasattr(sock, "default_value") else default
 
 
 def mesh_maps(material, mesh, albedo_uv=None):
@@ -162,11 +170,11 @@ def mesh_maps(material, mesh, albedo_uv=None):
         space = item.image.colorspace_settings.name
         if not item.image.is_float and space not in LINEAR_SPACES:
             notes.append(f"{where}: image '{item.image.name}' is {space}, read through its curve (Non-Color expected)")
-    return SlotMaps(tuple(inputs), uv_map or "", tuple(dict.fromkeys(notes)), found.f0_per_level)
+    return SlotMaps(tuple(inputs), uv_map or "", tuple(dict.fromkeys(notes)), found.f0_per_level, found.level)
 
 
-def map_pixels(image, channel, factor=1.0, upper=1.0):
-    """((h, w) float32 values in [0, upper], row 0 the bottom, note) of one channel of `image` times
+def map_pixels(image, channel, factor=1.0, upper=1.0, lower=0.0):
+    """((h, w) float32 values in [lower, upper], row 0 the bottom, note) of one channel of `image` times
     factor, decoded as the image's colour space says (an 8-bit image not in a linear space through
     the sRGB curve, as Cycles reads it whatever the socket); (None, note) without pixels."""
     px, note = raw_pixels(image)
@@ -179,6 +187,7 @@ def map_pixels(image, channel, factor=1.0, upper=1.0):
         values = rgb @ LUMA if channel == LUMINANCE else rgb[..., channel]
     values = values * np.float32(factor)
     note = ""
-    if values.min() < 0.0 or values.max() > upper:
-        note = f"image '{image.name}': values outside 0 to {upper:g} clamped"
-    return np.clip(values, 0.0, upper).astype(np.float32), note
+    if values.min() < lower or values.max() > upper:
+        span = f"below {lower:g}" if np.isinf(upper) else f"outside {lower:g} to {upper:g}"
+        note = f"image '{image.name}': values {span} clamped"
+    return np.clip(values, lower, upper).astype(np.float32), note

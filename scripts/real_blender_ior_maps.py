@@ -1,0 +1,147 @@
+"""Ad-hoc real-window look: two spheres whose IOR comes from an image (1.2 / 2.0 by halves; 0.5, clamped), PRT overlay then Cycles.
+
+blender --factory-startup --enable-event-simulate --python real_blender_ior_maps.py -- ZIP OUT_DIR (under Xvfb, as
+real_blender_check.sh runs Blender): installs the zip, bakes the spheres under forest.exr, shows
+the overlay in the 3D View's camera view (Solid shading) with the sidebar's PRT tab (the Display
+panel's clamp note), saves the X screen, then renders the same camera with Cycles (direct light
+only) into OUT_DIR.
+"""
+
+import importlib
+import json
+import os
+import subprocess
+import sys
+
+import bpy
+import numpy as np
+
+ZIP, OUT = sys.argv[sys.argv.index("--") + 1 :][:2]
+MODULE = "bl_ext.user_default.prt_lighting"
+state = {"step": 0}
+
+
+def halves(name, left, right):
+    image = bpy.data.images.new(name, 64, 64, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    px = np.ones((64, 64, 4), np.float32)
+    px[:, :32, :3], px[:, 32:, :3] = left, right
+    image.pixels.foreach_set(px.ravel())
+    image.pack()
+    return image
+
+
+def material(name, image):
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    tree = mat.node_tree
+    bsdf = tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.8, 0.8, 0.8, 1.0)
+    bsdf.inputs["Roughness"].default_value = 0.2
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    tree.links.new(tex.outputs["Color"], bsdf.inputs["IOR"])
+    return mat
+
+
+def scene_setup():
+    for obj in list(bpy.data.objects):
+        bpy.data.objects.remove(obj)
+    scene = bpy.context.scene
+    world = bpy.data.worlds.new("forest")
+    world.use_nodes = True
+    env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+    folder = bpy.utils.system_resource("DATAFILES", path="studiolights/world")
+    env.image = bpy.data.images.load(os.path.join(folder, "forest.exr"))
+    world.node_tree.links.new(env.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
+    scene.world = world
+    spheres = []
+    for x, mat in (
+        (-1.1, material("ior_map", halves("iors", 1.2, 2.0))),
+        (1.1, material("below", halves("below", 0.5, 0.5))),
+    ):
+        bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=1.0, location=(x, 0.0, 0.0))
+        sphere = bpy.context.active_object
+        sphere.rotation_euler = (0.0, 0.0, np.radians(90.0))
+        sphere.data.shade_smooth()
+        sphere.data.materials.append(mat)
+        spheres.append(sphere)
+    sphere = spheres[1]
+    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+    scene.collection.objects.link(cam)
+    cam.location, cam.rotation_euler = (0.0, -7.0, 0.0), (np.pi / 2, 0.0, 0.0)
+    scene.camera = cam
+    scene.render.resolution_x, scene.render.resolution_y = 600, 300
+    scene.view_settings.view_transform = "Standard"
+    api = importlib.import_module(f"{MODULE}.prt_addon.api")
+    api.project_world(order=8)
+    api.bake(spheres, order=8, samples=128)
+    scene.prt_display.specular = True
+    scene.prt.show_display = True
+    window = bpy.context.window_manager.windows[0]
+    area = max((a for a in window.screen.areas if a.type == "VIEW_3D"), key=lambda a: a.width * a.height)
+    space = area.spaces.active
+    space.shading.type = "SOLID"
+    space.region_3d.view_perspective = "CAMERA"
+    space.overlay.show_overlays = False
+    space.show_region_ui = True
+    bpy.context.view_layer.objects.active = sphere
+    sphere.select_set(True)
+    with bpy.context.temp_override(window=window, area=area, region=[r for r in area.regions if r.type == "WINDOW"][0]):
+        bpy.ops.view3d.view_center_camera()
+    area.tag_redraw()
+
+
+def tick():
+    step = state["step"]
+    state["step"] += 1
+    try:
+        if step == 0:
+            window = bpy.context.window_manager.windows[0]
+            window.event_simulate(type="ESC", value="PRESS")  # closes the splash screen
+            window.event_simulate(type="ESC", value="RELEASE")
+            bpy.ops.extensions.package_install_files(filepath=ZIP, repo="user_default", enable_on_install=True)
+        elif step == 1:
+            scene_setup()
+        elif step == 2:
+            window = bpy.context.window_manager.windows[0]
+            area = max((a for a in window.screen.areas if a.type == "VIEW_3D"), key=lambda a: a.width * a.height)
+            for region in area.regions:
+                if region.type == "UI":
+                    region.active_panel_category = "PRT"  # (the sidebar's PRT tab: read-only during set-up, not here)
+            area.tag_redraw()
+        elif step == 4:
+            window = bpy.context.window_manager.windows[0]
+            area = max((a for a in window.screen.areas if a.type == "VIEW_3D"), key=lambda a: a.width * a.height)
+            region = [r for r in area.regions if r.type == "WINDOW"][0]
+            box = [region.x, region.y, region.width, region.height, window.height]
+            open(os.path.join(OUT, "region.json"), "w").write(json.dumps(box))
+            subprocess.run(
+                [
+                    "import",
+                    "-display",
+                    os.environ.get("DISPLAY", ":99"),
+                    "-window",
+                    "root",
+                    os.path.join(OUT, "screen.png"),
+                ],
+                check=True,
+            )
+        elif step == 5:
+            scene = bpy.context.scene
+            scene.render.engine = "CYCLES"
+            scene.cycles.samples = 128
+            scene.cycles.max_bounces = 0
+            scene.cycles.use_denoising = False
+            scene.render.filepath = os.path.join(OUT, "cycles.png")
+            bpy.ops.render.render(write_still=True)
+            bpy.ops.wm.quit_blender()
+            return None
+    except Exception as e:
+        open(os.path.join(OUT, "error.txt"), "w").write(repr(e))
+        bpy.ops.wm.quit_blender()
+        return None
+    return 2.0
+
+
+bpy.app.timers.register(tick, first_interval=1.0)
