@@ -79,3 +79,23 @@ def test_no_contact_tangent_without_split_lights(baked, tmp_path):
     stored = sum(lit["bufferViews"][v]["byteLength"] for v in views)
     print(f"{vertices} glTF vertices: the contact tangents hold {stored} bytes")
     assert stored == 4 * vertices
+
+
+def test_a_texel_bake_gets_its_corners_tangents(baked, tmp_path):
+    """The grid baked per texel instead (its corners' normals: the same flat fan): its glTF
+    vertices carry the same closed form as the vertex bake's."""
+    from prt_addon import api
+    from prt_addon.blender.export import glb, gltf
+
+    _scene, objs = baked
+    grid = objs["grid"]
+    api.bake([grid], order=2, samples=16, target="TEXELS", uv_map="UVMap", resolution=16)
+    path = gltf.export_gltf(str(tmp_path / "texels.glb"), environment_size=0)
+    document, _chunks = glb.read(path)
+    assert {m["extras"]["PRT_lighting"]["domain"] for m in document["meshes"]} == {"POINT", "CORNER", "TEXEL"}
+    position, _normal, tangent, _w, _acc, _view = _rows(path, grid)
+    edge = np.isclose(np.abs(position[:, :2]), 2.0)
+    expected = np.c_[np.where(edge, -np.sign(position[:, :2]), 0.0), np.zeros(len(position))]
+    length = np.linalg.norm(expected, axis=1, keepdims=True)
+    expected = np.divide(expected, length, out=np.zeros_like(expected), where=length > 0)
+    np.testing.assert_allclose(tangent, expected, atol=STEP)
