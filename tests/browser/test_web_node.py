@@ -71,8 +71,9 @@ for (const c of job.checks) {
   for (const name of c.uvs || []) geometry.setAttribute(name, new THREE.BufferAttribute(new Float32Array(4), 2));
   try {
     if (c.kind === 'lighting') readLighting(c.meta);
-    else readTransfer(c.meta, geometry, c.json || {});
-    out.checks.push('ok');
+    const spec = c.kind === 'lighting' ? { warnings: [] } : readTransfer(c.meta, geometry, c.json || {});
+    if (spec.warnings.length) out.checks.push(`warning: ${spec.warnings.join('; ')}`);
+    else out.checks.push(spec.contact ? `ok, contact ${spec.contact}` : 'ok');
   } catch (error) {
     out.checks.push(`${error.name === 'Error' && error.constructor.name === 'FormatError' ? 'FormatError' : error.constructor.name}: ${error.message}`);
   }
@@ -162,7 +163,8 @@ def test_plugin_decodes_the_transfer_as_the_export_encodes_it():
 
 
 def test_format_checks_say_what_is_wrong():
-    """readLighting and readTransfer accept good blocks and say what is wrong with each bad one."""
+    """readLighting and readTransfer accept good blocks and say what is wrong with each bad one;
+    a mesh's contact tangent is found under GLTFLoader's lowercase name, or is warned about."""
     good_lighting = {"version": 1, "order": 2, "coefficients": [[0.1, 0.2, 0.3]] * 4, "lights": []}
     light = {"direction": [0, 1, 0], "power": [1, 1, 1], "angle": 0.01, "samples": None, "views": []}
     transfer = {"version": 2, "order": 2, "attributes": ["_PRT_T0"], "transfer_encoding": "float32"}
@@ -191,6 +193,14 @@ def test_format_checks_say_what_is_wrong():
         ("transfer", dict(transfer, transfer_encoding="snorm16"), attrs, "no complete decode table"),
         ("transfer", dict(transfer, transfer_encoding="half"), attrs, "encoding 'half' is unknown"),
         ("transfer", dict(transfer, bounce_channels=3), attrs, "bounced transfer is inconsistent"),
+        # The contact tangent (docs/export.md, "Contact tangent"): optional; a broken one is drawn without.
+        ("transfer", dict(transfer, contact="_PRT_CONTACT"), attrs + ["_prt_contact"], "ok, contact _prt_contact"),
+        (
+            "transfer",
+            dict(transfer, contact="_PRT_CONTACT"),
+            attrs,
+            "warning: its contact tangent _PRT_CONTACT is missing",
+        ),
     ]
     # Texel transfers (docs/export.md, "Texel transfer"): two PNG textures, a TEXCOORD_1 ("uv1").
     document = {"textures": [{"source": 0}, {"source": 1}], "images": [{"bufferView": 3}, {"bufferView": 4}]}
@@ -226,8 +236,8 @@ def test_format_checks_say_what_is_wrong():
     checks[2].pop("meta")
     out = _run({"decode": [], "checks": checks, "rotations": []})
     for (_kind, _meta, _a, message), got in zip(cases, out["checks"], strict=True):
-        if message == "ok":
-            assert got == "ok", got
+        if message.startswith(("ok", "warning: ")):
+            assert got == message if message == "ok" else got.startswith(message), (message, got)
         else:
             assert got.startswith("FormatError: ") and message in got, (message, got)
 

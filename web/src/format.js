@@ -92,13 +92,31 @@ export function readLighting(meta) {
   return { ...meta, order, lights };
 }
 
+/** {contact, warnings} of a mesh's contact tangent (docs/export.md, "Contact tangent"): the key of
+ * the geometry's attribute named by `contact` (x, y, z first, per vertex), or null, drawn without
+ * the contact shift (a file from before it, or without split lights; one whose attribute is broken,
+ * with a warning). */
+function readContact(meta, geometry) {
+  if (meta.contact == null) return { contact: null, warnings: [] };
+  const key = [String(meta.contact).toLowerCase(), String(meta.contact)].find((k) => geometry.attributes[k]);
+  const attr = key && geometry.attributes[key];
+  const vertices = geometry.attributes.position ? geometry.attributes.position.count : 0;
+  if (attr && attr.itemSize >= 3 && attr.count === vertices) return { contact: key, warnings: [] };
+  const warning = `its contact tangent ${meta.contact} is missing or not a vector per vertex: drawn without the contact shift`;
+  return { contact: null, warnings: [warning] };
+}
+
 /**
  * A mesh's transfer description (mesh extras PRT_lighting) checked against its geometry:
- * {order, count, names, channels, encoding, k, decode}; throws FormatError.
+ * {order, count, names, channels, encoding, k, decode, contact, warnings}; throws FormatError.
  */
 export function readTransfer(meta, geometry, json = {}) {
   if (!meta || typeof meta !== 'object') throw new FormatError('its PRT_lighting block is not an object');
   checkVersion(meta, MESH_VERSION, 'its PRT transfer');
+  return { ...readTransferOnly(meta, geometry, json), ...readContact(meta, geometry) };
+}
+
+function readTransferOnly(meta, geometry, json) {
   const order = meta.order;
   if (!Number.isInteger(order) || order < 1 || order > 32)
     throw new FormatError(`it has a bad order (${JSON.stringify(order)})`);

@@ -113,9 +113,12 @@ export class PRTLightingPlugin {
       const name = mesh.name || `mesh ${where.meshes}`;
       try {
         const spec = readTransfer(transfer, object.geometry, json);
+        for (const warning of spec.warnings) say('warn', `mesh '${name}': ${warning}`);
         if (!sources.has(object.geometry)) {
           sources.set(object.geometry, this.transferSource(object.geometry, spec));
           for (const attr of spec.names) object.geometry.deleteAttribute(attr.toLowerCase());
+          // The contact tangent, as the shader reads it (prt_material.js; normalised bytes: the GPU decodes them).
+          if (spec.contact) object.geometry.setAttribute('prtContact', object.geometry.getAttribute(spec.contact));
         }
         const primitive = mesh.primitives[where.primitives] || {};
         const color = object.material && object.material.color;

@@ -91,6 +91,7 @@ export class PRTLighting {
         side,
         surface,
         glossy,
+        contact: Boolean(spec.contact),
       });
       const relight =
         source.relightSize && (source.relit || source.stage === 'texel')
@@ -203,6 +204,7 @@ export class PRTLighting {
       material.uniforms.bounceConstant.value.set(...bounce.constant);
     }
     material.uniforms.nrmMatrix.value.getNormalMatrix(object.matrixWorld);
+    material.uniforms.tanMatrix.value.setFromMatrix4(object.matrixWorld); // (a tangent's world direction)
     if (material.uniforms.prtFrame) {
       // The transfer's frame (local SH -> world): the polar factor of the node's matrix.
       const { rotation, mirrored } = frameRotation(frame);

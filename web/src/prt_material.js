@@ -13,6 +13,7 @@
 import * as THREE from 'three';
 import {
   BLOCKER_TAPS,
+  CONTACT_SHIFT,
   MAX_RADIUS,
   MAX_SLOPE,
   MIN_COSINE,
@@ -22,6 +23,7 @@ import {
   WIDE_PCF_TAPS,
 } from './shadows.js';
 import { SPECULAR_FRAGMENT, mappedFragment, specularUniforms, specularVertex, surfaceSpecular } from './specular.js';
+import { TEXEL_LOOKUP } from './relight.js';
 
 // The sum unrolled (k constant, so a source's fetch(k) can name an attribute). A bounced bake
 // (Blender's bake.md, "Interreflection") has `channels` more blocks of `count` vec4s after the
@@ -102,7 +104,7 @@ function surfaceFragment(surface) {
   return lines.join('\n');
 }
 
-const VERTEX = (count, views, channels, source, surface, glossy) => `
+const VERTEX = (count, views, channels, source, surface, glossy, contact) => `
 ${source.glsl}
 ${glossy ? specularVertex(source, surface.paired) : ''}
 ${source.stage === 'texel' ? `attribute vec2 ${source.uvAttribute};\nvarying vec2 prtUv;` : ''}
@@ -115,6 +117,7 @@ uniform vec3 albedo;
 uniform float scale;
 varying vec3 radiance;
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
+${views && contact ? 'attribute vec3 prtContact;\nvarying vec3 localTan;' : ''}
 void main() {
 ${vertexRadiance(count, channels, source)}
 ${surfaceUvs(surface)}
@@ -122,6 +125,7 @@ ${surface.vertexColors ? '  prtVertexColor = color;' : ''}
   vec4 wp = modelMatrix * vec4(position, 1.0);
 ${glossy ? '  prtSpecularVertex(wp.xyz);' : ''}
 ${views ? '  surfaceAlbedo = albedo * scale;\n  worldPos = wp.xyz;\n  localNrm = normal;' : ''}
+${views && contact ? '  localTan = prtContact;' : ''}
   gl_Position = projectionMatrix * viewMatrix * wp;
 }
 `;
@@ -130,7 +134,7 @@ ${views ? '  surfaceAlbedo = albedo * scale;\n  worldPos = wp.xyz;\n  localNrm =
 // samples in all, on maps that store depth > 0, and 0 where empty. Per view v: sunRows[3v..3v+2]
 // world -> (texel x, texel y, depth), sunDir its direction, sunPower P/pi of its light, sunParams
 // (texel size, tan filter angle, resolution), sunRange (first sample, sample count, layer, wide).
-const SUN_FUNCTIONS = (views, samples) => `
+const SUN_FUNCTIONS = (views, samples, contact) => `
 uniform vec4 sunRows[${3 * views}];
 uniform vec4 sunDir[${views}];
 uniform vec4 sunPower[${views}];
@@ -141,6 +145,7 @@ uniform sampler2DArray sharpMaps;
 uniform sampler2DArray wideMaps;
 uniform mat3 nrmMatrix;
 uniform bool useShadows;
+${contact ? 'uniform mat3 tanMatrix;\nvarying vec3 localTan;' : ''}
 
 float sunDepth(sampler2DArray maps, vec2 xy, float layer, float res) {
   ivec2 t = ivec2(floor(xy));
@@ -176,7 +181,7 @@ float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pc
   }
   grad *= texel;
   float bias = texel * (1.0 + slope);
-  float search = clamp(q.z * tanA / texel, 1.0, maxRadius);
+${contact ? CONTACT_LINES : ''}  float search = clamp(q.z * tanA / texel, 1.0, maxRadius);
   float sum = 0.0;
   float found = 0.0;
   for (int i = 0; i < blockerTaps; i++) {
@@ -206,6 +211,16 @@ float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pc
   }
   return weight > 0.0 ? lit / weight : 0.0;
 }
+`;
+
+// Where another surface touches this one (a wall under a ceiling) the map holds that surface at
+// the receiver's own depth: the lookup moves into the receiver's own surface along its contact
+// tangent, by CONTACT_SHIFT biases in world units times its length (display/shader_suns.py,
+// docs/display.md "Joins"); the tangent is the node's (glTF local), taken to world space by tanMatrix.
+const CONTACT_LINES = `  vec3 along = tanMatrix * localTan;
+  vec3 dq = vec3(dot(sunRows[3 * v].xyz, along), dot(sunRows[3 * v + 1].xyz, along), dot(sunRows[3 * v + 2].xyz, along));
+  float moved = length(vec3(dq.xy * texel, dq.z));
+  if (moved > 0.0) q += dq * (${CONTACT_SHIFT.toFixed(1)} * bias * length(localTan) / moved);
 `;
 
 // The views written out one by one (layout: per view {count of samples, wide}, fixed per file), so
@@ -243,35 +258,13 @@ function sunLoop(layout, glossy) {
   return lines.join('\n');
 }
 
-// A texel source's radiance: the bilinear lookup (clamp to edge, texel centres at (i + 0.5) / res)
-// of the relit texture at the lightmap UV, as core.transfer.lightmap.bilinear and Blender's display.
-const TEXEL_LOOKUP = `
-uniform sampler2D prtRadianceTx;
-uniform int prtResolution;
-uniform vec3 albedo;
-uniform float scale;
-varying vec2 prtUv;
-vec3 prtTexelRadiance() {
-  vec2 x = prtUv * float(prtResolution) - 0.5;
-  vec2 f0 = floor(x);
-  vec2 f = x - f0;
-  ivec2 top = ivec2(prtResolution - 1);
-  ivec2 a = clamp(ivec2(f0), ivec2(0), top);
-  ivec2 b = clamp(ivec2(f0) + 1, ivec2(0), top);
-  vec3 r00 = texelFetch(prtRadianceTx, a, 0).rgb;
-  vec3 r10 = texelFetch(prtRadianceTx, ivec2(b.x, a.y), 0).rgb;
-  vec3 r01 = texelFetch(prtRadianceTx, ivec2(a.x, b.y), 0).rgb;
-  vec3 r11 = texelFetch(prtRadianceTx, b, 0).rgb;
-  return mix(mix(r00, r10, f.x), mix(r01, r11, f.x), f.y);
-}`;
-
 // The end of the fragment shader: the base colour per pixel, and with specular Principled's weights.
 function shade(glossy) {
   if (!glossy) return '  gl_FragColor = vec4(color * prtBaseColor() * exposureScale, 1.0);';
   return `  gl_FragColor = vec4(prtSpecularShade(color * prtBaseColor(), sunSpec, base, scale) * exposureScale, 1.0);`;
 }
 
-const FRAGMENT = (views, samples, layout, texel, surface, glossy) => `
+const FRAGMENT = (views, samples, layout, texel, surface, glossy, contact) => `
 uniform float exposureScale;
 varying vec3 radiance;
 ${glossy && !texel ? 'uniform vec3 albedo;\nuniform float scale;' : ''}
@@ -279,7 +272,7 @@ ${surfaceFragment(surface)}
 ${glossy ? (surface.paired ? mappedFragment() + surfaceSpecular(surface) : SPECULAR_FRAGMENT) : ''}
 ${texel ? TEXEL_LOOKUP : ''}
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
-${views ? SUN_FUNCTIONS(views, samples) : ''}
+${views ? SUN_FUNCTIONS(views, samples, contact) : ''}
 void main() {
   vec3 color = ${texel ? 'prtTexelRadiance() * albedo * scale' : 'radiance'};
 ${glossy ? `  vec3 sunSpec = vec3(0.0);\n  vec3 base = albedo * prtBaseColor();\n${surface.paired ? '  prtSurfaceInputs();\n' : ''}  prtSpecularSetup(base);` : ''}
@@ -297,7 +290,8 @@ ${shade(glossy)}
  * (the plugin passes the glTF material's: doubleSided or not); `surface` the source material's
  * per-pixel base colour: {map (a THREE.Texture, its `channel` and `matrix` used), vertexColors};
  * `glossy` the Principled specular (specular.js: {order, constants: readMaterial's}; null: diffuse
- * only), its shared uniforms (skyTx, brdfTx, skyRows, skySize) in `shared`. */
+ * only), its shared uniforms (skyTx, brdfTx, skyRows, skySize) in `shared`; `contact` whether the
+ * geometry has the contact tangent `prtContact` (plugin.js), which the shadow lookups move along. */
 export function prtMaterial({
   source,
   views = 0,
@@ -309,6 +303,7 @@ export function prtMaterial({
   side = THREE.DoubleSide,
   surface = {},
   glossy = null,
+  contact = false,
 }) {
   const mapped = glossy ? glossy.constants.maps || [] : [];
   const base = {
@@ -331,6 +326,7 @@ export function prtMaterial({
     albedo: { value: new THREE.Vector3(...albedo) },
     scale: { value: 1.0 },
     nrmMatrix: { value: new THREE.Matrix3() },
+    tanMatrix: { value: new THREE.Matrix3() },
     exposureScale: shared.exposureScale,
     prtRadianceTx: { value: null }, // (a relit or texel source: relight.js's texture)
     prtResolution: { value: source.resolution || 0 },
@@ -360,8 +356,8 @@ export function prtMaterial({
   }
   return new THREE.ShaderMaterial({
     uniforms,
-    vertexShader: VERTEX(count, views, channels, source, base, glossy),
-    fragmentShader: FRAGMENT(views, samples, layout, source.stage === 'texel', base, glossy),
+    vertexShader: VERTEX(count, views, channels, source, base, glossy, contact),
+    fragmentShader: FRAGMENT(views, samples, layout, source.stage === 'texel', base, glossy, contact),
     side,
   });
 }

@@ -9,6 +9,28 @@
 // before; run(renderer) redraws the target.
 import * as THREE from 'three';
 
+// A texel source's radiance: the bilinear lookup (clamp to edge, texel centres at (i + 0.5) / res)
+// of the relit texture at the lightmap UV, as core.transfer.lightmap.bilinear and Blender's display.
+export const TEXEL_LOOKUP = `
+uniform sampler2D prtRadianceTx;
+uniform int prtResolution;
+uniform vec3 albedo;
+uniform float scale;
+varying vec2 prtUv;
+vec3 prtTexelRadiance() {
+  vec2 x = prtUv * float(prtResolution) - 0.5;
+  vec2 f0 = floor(x);
+  vec2 f = x - f0;
+  ivec2 top = ivec2(prtResolution - 1);
+  ivec2 a = clamp(ivec2(f0), ivec2(0), top);
+  ivec2 b = clamp(ivec2(f0) + 1, ivec2(0), top);
+  vec3 r00 = texelFetch(prtRadianceTx, a, 0).rgb;
+  vec3 r10 = texelFetch(prtRadianceTx, ivec2(b.x, a.y), 0).rgb;
+  vec3 r01 = texelFetch(prtRadianceTx, ivec2(a.x, b.y), 0).rgb;
+  vec3 r11 = texelFetch(prtRadianceTx, b, 0).rgb;
+  return mix(mix(r00, r10, f.x), mix(r01, r11, f.x), f.y);
+}`;
+
 const VERTEX = `
 void main() {
   gl_Position = vec4(position.xy, 0.0, 1.0);

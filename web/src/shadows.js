@@ -21,6 +21,7 @@ export const MAX_RADIUS = 64.0; // texels: a compact light's widest penumbra (di
 export const WIDE_MAX_RADIUS = 24.0; // a wide light's view's
 export const MAX_SLOPE = 20.0;
 export const MAX_SAMPLES = 16; // a light's samples in the cosine term (display/shader_suns.py)
+export const CONTACT_SHIFT = 3.0; // lookups move this many biases along the contact tangent (display/shader_suns.py)
 export const MIN_COSINE = 0.05; // the slope bias's cosine when the view's direction is at or below the horizon
 const PAD = 0.01;
 

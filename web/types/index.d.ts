@@ -109,6 +109,9 @@ export function prtMaterial(options: {
   shared: Record<string, { value: unknown }>;
   channels?: number;
   side?: number;
+  /** The geometry has the contact tangent as `prtContact` (node frame), which the shadow lookups
+   * move along; the material's `tanMatrix` uniform is then the node's 3x3 (PRTLighting sets it). */
+  contact?: boolean;
 }): ShaderMaterial;
 export function bandMatrices(r: ArrayLike<number>, order: number): Float64Array[];
 export function rotationMatrix(r: ArrayLike<number>, order: number): Float64Array;

@@ -2,7 +2,8 @@
 
 Blender's own glTF exporter writes the file: the transfer is copied into temporary FLOAT_COLOR
 attributes `_PRT_T0`, `_PRT_T1`, ... (custom attributes it exports as VEC4 FLOAT accessors),
-rotated into glTF's Y-up frame; the PRT metadata and the lighting are added to the JSON chunk
+rotated into glTF's Y-up frame, and with split lights the contact tangent `_PRT_CONTACT`
+(contact); the PRT metadata and the lighting are added to the JSON chunk
 afterwards (glb). The user's attributes, selection and active object are restored in every
 case, and the file appears only when complete (temporary file renamed). The world's prefiltered
 cube map and irradiance go in EXT_lights_image_based (ibl). docs/export.md is the format.
@@ -22,7 +23,7 @@ from ...core.sh import rotation as _rotation
 from ..scene import lighting as _lighting, storage
 from ..world import nodes as _nodes, projection as _world
 from ..world.nodes import WorldError
-from . import glb, ibl, quantise, specular, texels
+from . import contact, glb, ibl, quantise, specular, texels
 
 ATTRIBUTE_PREFIX = "_PRT_T"
 WEB_WIDE_VIEWS = 32  # the web viewer's wide maps (MAX_WIDE_VIEWS of web/src/shadows.js)
@@ -353,9 +354,13 @@ def export_gltf(path, objects=None, scene=None, environment_size=ibl.DEFAULT_SIZ
     temp = os.path.join(os.path.dirname(path), f".{os.path.basename(path)}.{uuid.uuid4().hex[:8]}.tmp.glb")
     try:
         for obj, bake in plan:
-            if bake is not None and bake.domain != "TEXEL" and obj.data not in [m for m, _n in added]:
-                added.append((obj.data, []))
+            if bake is None or obj.data in [m for m, _n in added]:
+                continue
+            added.append((obj.data, []))
+            if bake.domain != "TEXEL":
                 _add_attributes(obj.data, bake, added[-1][1])
+            if world["lights"]:  # (only a viewer's shadow maps read it: docs/export.md, "Contact tangent")
+                contact.add_attribute(obj.data, bake, added[-1][1], BLENDER_TO_GLTF)
         for obj in bpy.context.view_layer.objects:
             obj.select_set(False)
         for obj, _bake in plan:
@@ -368,6 +373,7 @@ def export_gltf(path, objects=None, scene=None, environment_size=ibl.DEFAULT_SIZ
         texel = _annotate(document, plan, world)
         chunks = quantise.quantise(document, chunks, transfer, EXTRAS_KEY)
         texels.annotate(document, chunks, texel, to_gltf_frame, texels.encoding_for(transfer), EXTRAS_KEY)
+        chunks = contact.store(document, chunks, EXTRAS_KEY)
         if environment is not None:
             ibl.write(document, chunks, environment[0], environment[1], glb.CHUNK_BIN)
         materials = {s.material.name: (s.material, o.data) for o, _b in plan for s in o.material_slots if s.material}

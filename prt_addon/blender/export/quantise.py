@@ -29,17 +29,18 @@ def _view_bytes(document, binary, view_index):
     return binary[start : start + view["byteLength"]]
 
 
-def _read_float(document, binary, accessor):
-    """(count, 4) float32 of a VEC4 FLOAT accessor (byteStride honoured)."""
-    if accessor.get("componentType") != FLOAT or accessor.get("type") != "VEC4" or "bufferView" not in accessor:
-        raise ValueError("a transfer accessor is not a VEC4 FLOAT one")
+def read_float(document, binary, accessor, width=4):
+    """(count, width) float32 of a VEC<width> FLOAT accessor (byteStride honoured)."""
+    if accessor.get("componentType") != FLOAT or accessor.get("type") != f"VEC{width}" or "bufferView" not in accessor:
+        raise ValueError(f"a transfer accessor is not a VEC{width} FLOAT one")
     view = document["bufferViews"][accessor["bufferView"]]
     data = _view_bytes(document, binary, accessor["bufferView"])
-    stride = view.get("byteStride", 16)
+    size = 4 * width
+    stride = view.get("byteStride", size)
     count, start = accessor["count"], accessor.get("byteOffset", 0)
-    raw = np.frombuffer(data, np.uint8, count * stride - (stride - 16) if count else 0, start)
-    rows = np.lib.stride_tricks.as_strided(raw, (count, 16), (stride, 1)) if count else raw.reshape(0, 16)
-    return np.ascontiguousarray(rows).view(np.float32).reshape(count, 4)
+    raw = np.frombuffer(data, np.uint8, count * stride - (stride - size) if count else 0, start)
+    rows = np.lib.stride_tricks.as_strided(raw, (count, size), (stride, 1)) if count else raw.reshape(0, size)
+    return np.ascontiguousarray(rows).view(np.float32).reshape(count, width)
 
 
 def decode(q, offset, scale, k):
@@ -57,7 +58,7 @@ def encode(values, k):
     return q, offset, np.where(scale > 0, scale, 0.0)
 
 
-def _pack(document, chunks, replaced, extra):
+def pack_views(document, chunks, replaced, extra):
     """Rewrite the BIN chunk without the buffer views in `replaced` (no accessor left using them),
     appending the `extra` payloads as new views; returns (chunks, [index of each new view])."""
     binary = chunks[0][1]
@@ -115,7 +116,7 @@ def quantise(document, chunks, encoding, extras_key="PRT_lighting"):
         table = []
         for name in names:
             indices = sorted({p["attributes"][name] for p in mesh["primitives"] if name in p.get("attributes", {})})
-            rows = [_read_float(document, binary, accessors[i]) for i in indices]
+            rows = [read_float(document, binary, accessors[i]) for i in indices]
             q, offset, scale = encode(np.concatenate(rows), k)
             table.append({"offset": offset.tolist(), "scale": scale.tolist()})
             first = 0
@@ -131,7 +132,7 @@ def quantise(document, chunks, encoding, extras_key="PRT_lighting"):
     still_used |= {im["bufferView"] for im in document.get("images", []) if "bufferView" in im}
     if replaced & still_used:
         raise ValueError("a transfer buffer view is shared with other data")
-    chunks, added = _pack(document, chunks, replaced, payloads)
+    chunks, added = pack_views(document, chunks, replaced, payloads)
     for index, view in zip(jobs, added):
         accessor = accessors[index]
         accessor.update(bufferView=view, byteOffset=0, componentType=component, normalized=True)
