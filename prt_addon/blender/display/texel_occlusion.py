@@ -4,8 +4,8 @@ A texel bake's transfer is a texture (scene.texel_storage: tile g of the image a
 g % tiles_x, row g // tiles_x), so what a vertex bake sums per vertex is summed here per pixel:
 the full transfer's lobe-weighted visibility (shader_specular.occlusion_lines, its vertex form
 run in the fragment on the coefficients looked up at the pixel, with the interpolated position
-and normal), at every roughness: on the texel floor beside a box it is closer to Cycles than the
-cones at roughness 0.1 to 0.8, and than the vertex bakes' blend (docs/specular.md). Each tile is
+and normal), at every roughness (the cones of bands 0 and 1, and the vertex bakes' blend from
+them, are further from the lobe integral and from Cycles: docs/specular.md). Each tile is
 looked up with the GPU's bilinear filter inside the tile, (clamp(uv res, 1/2, res - 1/2) + tile
 origin) / size: the clamp-to-edge bilinear lookup of the texel relight (shader._TEXEL_FUNCTION)
 and of core.transfer.lightmap.bilinear. Faces seen from behind (an open mesh's back side) keep
