@@ -115,3 +115,53 @@ def test_the_plugin_draws_a_bounced_texel_bake_as_render_view(texel_demo_scene, 
     drawn = references[0][..., 3] > 0
     gap = np.abs(direct_ground[..., :3] - references[0][..., :3]).max(axis=-1)[drawn].mean()
     assert gap > 10 * MEAN_TOLERANCE * references[0][..., :3][drawn].mean()
+
+
+def test_the_plugin_draws_a_glossy_texel_bake_as_render_view(texel_demo_scene, browser_tools, tmp_path, capsys):
+    """The ground per texel as a glossy metal with Specular on: its occlusion, the full transfer
+    summed per pixel from its decoded tiles, is render_view's; Suzanne hides the sky's reflection
+    from the ground about her (render_view without the texel occlusion is far off there)."""
+    import bpy
+    from helpers.specular_scenes import principled_material
+    from helpers.texel_glossy_scene import without_texel_occlusion
+
+    from prt_addon import api
+
+    scene = texel_demo_scene
+    ground = scene.objects["Ground"]
+    material = principled_material(bpy, "PRT test glossy", (0.9, 0.9, 0.9), 0.3, 1.0)
+    old_materials = list(ground.data.materials)
+    ground.data.materials.clear()
+    ground.data.materials.append(material)
+    scene.prt_display.specular = True
+    try:
+        glb = api.export_gltf(str(tmp_path / "glossy_texels.glb"), environment_size=0)
+        turns, references = _turns_and_references(scene, [0.0], WIDTH, HEIGHT)
+        with without_texel_occlusion():
+            unoccluded = api.render_view(scene, WIDTH, HEIGHT)
+    finally:
+        scene.prt_display.specular = False
+        ground.data.materials.clear()
+        for m in old_materials:
+            ground.data.materials.append(m)
+        bpy.data.materials.remove(material)
+    files = [{"name": "glossy", "glb": glb}]
+    info, images = _plugin_images(
+        browser_tools, tmp_path, files, [dict(width=WIDTH, height=HEIGHT, name="glossy", turn=turns[0])]
+    )
+    said = info["glossy"]["console"]
+    assert info["glossy"]["prt"] and not [m for m in said if m.startswith(("error", "pageerror"))], said
+    file = tmp_path / "glossy.f32"
+    images[0].astype(np.float32).tofile(file)
+    result = _compare(references[0], file, WIDTH, HEIGHT)
+    file_open = tmp_path / "unoccluded.f32"
+    unoccluded.astype(np.float32).tofile(file_open)
+    gap = _compare(references[0], file_open, WIDTH, HEIGHT)
+    with capsys.disabled():
+        print(
+            f"\nplugin vs render_view, glossy texels: mean {100 * result['mean']:.3f} %, p99 {100 * result['p99']:.3f} %, "
+            f"coverage {100 * result['coverage']:.3f} %; render_view without the texel occlusion: mean "
+            f"{100 * gap['mean']:.3f} %, p99 {100 * gap['p99']:.3f} %"
+        )
+    assert result["drawn"] > 0.3 and result["mean"] < MEAN_TOLERANCE and result["p99"] < P99_TOLERANCE, result
+    assert gap["p99"] > 5 * P99_TOLERANCE, gap

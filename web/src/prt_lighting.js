@@ -14,6 +14,7 @@ import { rotationRows, turned } from './rotation_input.js';
 import { backgroundMesh } from './background.js';
 import { Relight } from './relight.js';
 import { OcclusionPass } from './occlusion.js';
+import { TexelTiles } from './texel_occlusion.js';
 import { BAND_COUNT } from './specular.js';
 
 // Blender's display draws a primitive without a material with its default grey (albedo.py).
@@ -104,6 +105,9 @@ export class PRTLighting {
           ? new OcclusionPass(object.geometry, source, material, Math.min(spec.order, BAND_COUNT))
           : null;
       if (occlusion) material.uniforms.prtOcclusionTx.value = occlusion.texture;
+      // A texel bake's: its tiles decoded once, the occlusion summed per pixel (texel_occlusion.js).
+      const tiles = glossy && source.stage === 'texel' ? new TexelTiles(source) : null;
+      if (tiles) material.uniforms.prtTilesTx.value = tiles.texture;
       object.userData.prtOriginalMaterial = object.material;
       object.material = material;
       const entry = {
@@ -116,6 +120,7 @@ export class PRTLighting {
         frame: null,
         relight,
         occlusion,
+        tiles,
       };
       object.onBeforeRender = (renderer, _scene, camera) => this.beforeRender(renderer, entry, camera);
       return entry;
@@ -183,6 +188,7 @@ export class PRTLighting {
     this.updateMesh(entry);
     if (entry.relight && entry.relight.dirty) entry.relight.run(renderer);
     if (entry.occlusion && camera) entry.occlusion.update(renderer, camera, entry.object);
+    if (entry.tiles) entry.tiles.update(renderer);
     this.updateShadows(renderer);
   }
 
@@ -268,13 +274,14 @@ export class PRTLighting {
   /** Frees the GPU resources the plugin made (the file's own geometries, materials and textures stay
    * the app's); the meshes get their original materials back. */
   dispose() {
-    for (const { object, material, source, relight, occlusion } of this.baked) {
+    for (const { object, material, source, relight, occlusion, tiles } of this.baked) {
       object.material = object.userData.prtOriginalMaterial;
       object.onBeforeRender = () => {};
       material.dispose();
       source.dispose();
       if (relight) relight.dispose();
       if (occlusion) occlusion.dispose();
+      if (tiles) tiles.dispose();
     }
     if (this.shadows) this.shadows.dispose();
     if (this.specular) [this.specular.sky, this.specular.table].forEach((texture) => texture.dispose());

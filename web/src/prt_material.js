@@ -24,6 +24,7 @@ import {
 } from './shadows.js';
 import { SPECULAR_FRAGMENT, mappedFragment, specularUniforms, specularVertex, surfaceSpecular } from './specular.js';
 import { TEXEL_LOOKUP } from './relight.js';
+import { texelOcclusionFragment, texelSpecular } from './texel_occlusion.js';
 
 // The sum unrolled (k constant, so a source's fetch(k) can name an attribute). A bounced bake
 // (Blender's bake.md, "Interreflection") has `channels` more blocks of `count` vec4s after the
@@ -264,13 +265,13 @@ function shade(glossy) {
   return `  gl_FragColor = vec4(prtSpecularShade(color * prtBaseColor(), sunSpec, base, scale) * exposureScale, 1.0);`;
 }
 
-const FRAGMENT = (views, samples, layout, texel, surface, glossy, contact) => `
+const FRAGMENT = (views, samples, layout, texel, surface, glossy, contact, texelOcclusion = '') => `
 uniform float exposureScale;
 varying vec3 radiance;
 ${glossy && !texel ? 'uniform vec3 albedo;\nuniform float scale;' : ''}
 ${surfaceFragment(surface)}
-${glossy ? (surface.paired ? mappedFragment() + surfaceSpecular(surface) : SPECULAR_FRAGMENT) : ''}
-${texel ? TEXEL_LOOKUP : ''}
+${glossy ? texelSpecular(surface.paired ? mappedFragment() + surfaceSpecular(surface) : SPECULAR_FRAGMENT, texelOcclusion) : ''}
+${texel ? TEXEL_LOOKUP + texelOcclusion : ''}
 ${views ? 'varying vec3 surfaceAlbedo;\nvarying vec3 worldPos;\nvarying vec3 localNrm;' : ''}
 ${views ? SUN_FUNCTIONS(views, samples, contact) : ''}
 void main() {
@@ -354,10 +355,11 @@ export function prtMaterial({
     }
     Object.assign(uniforms, { sharpMaps: shared.sharpMaps, wideMaps: shared.wideMaps, useShadows: shared.useShadows });
   }
+  const texelOcc = texelOcclusionFragment(source, glossy, base.paired); // ('' unless a glossy texel bake)
   return new THREE.ShaderMaterial({
     uniforms,
     vertexShader: VERTEX(count, views, channels, source, base, glossy, contact),
-    fragmentShader: FRAGMENT(views, samples, layout, source.stage === 'texel', base, glossy, contact),
+    fragmentShader: FRAGMENT(views, samples, layout, source.stage === 'texel', base, glossy, contact, texelOcc),
     side,
   });
 }

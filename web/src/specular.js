@@ -7,7 +7,7 @@
 // inverse) at Frostbite's dominant direction, E_spec the multiple-scattering albedo from the
 // split-sum table, occ the specular occlusion from the transfer (the cones of bands 0 and 1 below
 // roughness 0.3, the lobe-weighted visibility of the full transfer above 0.6, per vertex:
-// occlusion.js), the
+// occlusion.js; a texel bake's full transfer at every roughness, per pixel: texel_occlusion.js), the
 // split lights' GGX at the representative point of each view's disc with its shadow map's
 // visibility, each view weighted by its share of its light's power.
 import * as THREE from 'three';
@@ -139,6 +139,8 @@ export function readMaterial(extras) {
  * display/material_maps.py: the two are mixed per pixel by the roughness between the image's range. */
 export function specularVertex(source, paired = false) {
   const decoded = source.kind === 'texture';
+  if (source.stage === 'texel')
+    return 'uniform mat3 nrmMatrix;\nvarying vec3 prtSpecPos;\nvarying vec3 prtSpecNrm;\nvoid prtSpecularVertex(vec3 wp) {\n  prtSpecPos = wp;\n  prtSpecNrm = nrmMatrix * normal;\n}'; // (its occlusion per pixel: texel_occlusion.js)
   const lines = [
     'uniform mat3 nrmMatrix;',
     decoded ? 'uniform sampler2D prtOcclusionTx;' : '',
@@ -355,5 +357,6 @@ export function specularUniforms(shared, surface) {
         }
       : {}),
     prtOcclusionTx: { value: null }, // (occlusion.js's texture, for a source decoded at the vertex)
+    prtTilesTx: { value: null }, // (a texel bake's decoded tiles: texel_occlusion.js)
   };
 }

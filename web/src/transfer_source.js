@@ -244,6 +244,7 @@ vec4 prtTexel${b}(int k, ivec2 p) {
     count: spec.count,
     blocks: parts.length,
     resolution,
+    tiles, // (the planes' tile grid: tile k at column k % tiles[0]; texel_occlusion.js decodes the direct ones)
     uvAttribute,
     uniforms,
     glsl: '',

@@ -113,6 +113,8 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
         if entry.texel_grid is not None:
             shader.uniform_int("texel_grid", entry.texel_grid)
             shader.uniform_sampler("transfer_tx", _relit(state, entry, info.count, info.channels))
+            if specular:  # (the occlusion reads the transfer per pixel: texel_occlusion)
+                shader.uniform_sampler("texel_tiles_tx", entry.texture)
         elif entry.texture is not None:
             shader.uniform_int("per_row", entry.per_row)
             shader.uniform_sampler("transfer_tx", entry.texture)

@@ -20,7 +20,7 @@ from ...core.specular import occlusion
 from .. import caches
 from ..scene.albedo_source import slot_sources
 from ..scene.principled_maps import RANGES, map_pixels, mesh_maps
-from . import albedo_texture, shader_specular
+from . import albedo_texture, shader_specular, texel_occlusion
 
 NAMES = ("rough", "metal", "level", "ior")
 SLOTS = (6, 7, 8, 10)  # sampler slots (albedo_texture.ALBEDO_SLOT is 5, the colour table 9)
@@ -91,14 +91,20 @@ def _vertex(vertex):
     return "\n".join(out)
 
 
-def add_maps(info, vertex, fragment):
+def add_maps(info, vertex, fragment, texel=False):
     """Declare the maps' samplers and varying on `info`; -> (vertex, fragment) of the specular
-    shader (textured: albedo_uv and albedo_texture.GLSL already in) reading the maps."""
+    shader (textured: albedo_uv and albedo_texture.GLSL already in) reading the maps. texel: a
+    texel bake, whose full-transfer occlusion is in the fragment (texel_occlusion)."""
     for slot, name in zip(SLOTS, NAMES):
         info.sampler(slot, "FLOAT_2D", f"{name}_tx")
-    iface = gpu.types.GPUStageInterfaceInfo("prt_maps_iface")
-    iface.smooth("FLOAT", "spec_occ2")
-    info.vertex_out(iface)
+    if texel:
+        head, tail = fragment.split(texel_occlusion.FULL_FUNCTION, 1)
+        body, rest = tail.split("\n}\n", 1)
+        fragment = "float spec_occ2 = 1.0;\n" + head + texel_occlusion.FULL_FUNCTION + _vertex(body) + "\n}\n" + rest
+    else:
+        iface = gpu.types.GPUStageInterfaceInfo("prt_maps_iface")
+        iface.smooth("FLOAT", "spec_occ2")
+        info.vertex_out(iface)
     setup, occ = "void spec_setup()\n{\n", "clamp(spec_occ, 0.0, 1.0)"
     assert fragment.count(albedo_texture.GLSL) == 1 and setup in fragment and fragment.count(occ) == 1
     fragment = fragment.replace(occ, "clamp(mix(spec_occ, spec_occ2, spec_occ_t), 0.0, 1.0)")
@@ -106,7 +112,7 @@ def add_maps(info, vertex, fragment):
     for axis, name in zip("xyz", ("spec_roughness", "spec_metallic", "spec_f0d")):
         fragment = fragment.replace(f"spec.material.{axis}", name)
     fragment = fragment.replace(albedo_texture.GLSL, albedo_texture.GLSL + GLSL, 1)
-    return _vertex(vertex), fragment
+    return (vertex if texel else _vertex(vertex)), fragment
 
 
 _textures = {}  # (image pointer, channel, factor, input) -> (key, GPUTexture or None, note, (lo, hi))

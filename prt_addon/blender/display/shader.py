@@ -14,7 +14,7 @@ import gpu
 import numpy as np
 
 from .. import caches
-from . import albedo_texture, colour, material_maps, shader_specular
+from . import albedo_texture, colour, material_maps, shader_specular, texel_occlusion
 from .shader_suns import UBO_SOURCE, add_suns
 
 # GL guarantees (and llvmpipe offers) 16 vertex attributes; position, albedo, and for the suns
@@ -276,6 +276,8 @@ def get_shader(
         fragment = _albedo_diffuse(fragment)
     if specular:
         vertex, fragment = shader_specular.add_specular(info, vertex, fragment, mode, first, bool(lights), count)
+        if mode == "TEXEL":
+            fragment = texel_occlusion.GLOBALS + texel_occlusion.add_occlusion(info, fragment, count, back)
     if textured:  # read first (the specular's set-up takes it as the base colour of metals and Fresnel)
         base, main = "spec_albedo / max(scale", "void main()\n{\n"
         assert fragment.count(base) == (2 if specular else 0) and main in fragment
@@ -284,7 +286,7 @@ def get_shader(
         )
         fragment = albedo_texture.GLSL + fragment
     if spec_maps:
-        vertex, fragment = material_maps.add_maps(info, vertex, fragment)
+        vertex, fragment = material_maps.add_maps(info, vertex, fragment, texel=mode == "TEXEL")
     colour.declare(info)
     info.fragment_out(0, "VEC4", "FragColor")
     info.vertex_source(vertex)

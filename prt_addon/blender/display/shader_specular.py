@@ -12,8 +12,9 @@ metallic mixes a conductor of F0 = base colour with the dielectric of the IOR's 
 looked up at Q^T of Frostbite's dominant direction, linear between the two nearest levels: one
 trilinear fetch of sky_texture's 3D texture),
 occ the cones' occlusion of core.specular.occlusion from the transfer's bands 0 and 1 (per
-vertex), and for each split light's shadow view its GGX at Karis's representative point of its
-disc with the widened alpha' = min(1, alpha + angle / 2) and the (alpha / alpha')^2 normalisation,
+vertex; a texel bake's is the full transfer's, per pixel: texel_occlusion), and for each split
+light's shadow view its GGX at Karis's representative point of its disc with the widened
+alpha' = min(1, alpha + angle / 2) and the (alpha / alpha')^2 normalisation,
 times Turquin's compensation 1 + F0 (1 / E_ss - 1), its visibility V_v the shadow maps' one.
 """
 
@@ -187,9 +188,7 @@ def transfer_vec4(mode):
     """GLSL of the element's first transfer vec4 (bands 0 and 1) in the vertex shader."""
     if mode == "ATTR":
         return "prt_t0"
-    if mode == "TEXTURE":
-        return "texelFetch(transfer_tx, ivec2(col, row), 0)"
-    return f"vec4({Y0}, 0.0, 0.0, 0.0)"  # a texel bake: no per-vertex transfer (open)
+    return "texelFetch(transfer_tx, ivec2(col, row), 0)"  # (a texel bake's is per pixel: texel_occlusion)
 
 
 def occlusion_lines(mode, count):
@@ -198,8 +197,6 @@ def occlusion_lines(mode, count):
     Q_mm = (2m - 1)!!, Q_{m+1,m} = (2m + 1) z Q_mm, Q_lm = ((2l - 1) z Q_{l-1,m} - (l + m - 1)
     Q_{l-2,m}) / (l - m); y_lm = K_lm Q_lm Re/Im (x + i y)^m), the open transfer's part by the
     addition theorem: sum_l k_l z_l sqrt((2l + 1) / 4 pi) P_l(n.R)."""
-    if mode == "TEXEL":
-        return "  spec_occ = 1.0;\n"
     order = min(int(np.floor(np.sqrt(4 * count))), MAX_BAND_ORDER)
     if mode == "ATTR":
         coeff = lambda i: f"prt_t{i // 4}[{i % 4}]"
@@ -269,13 +266,16 @@ def add_specular(info, vertex, fragment, mode, nrm_index, has_suns, count=1):
     iface.smooth("VEC3", "spec_pos")
     iface.smooth("VEC3", "spec_nrm")
     iface.smooth("VEC3", "spec_albedo")
-    iface.smooth("VEC4", "spec_vis")
-    iface.smooth("FLOAT", "spec_occ")
+    occluded = ""
+    if mode != "TEXEL":  # (a texel bake reads them per pixel: texel_occlusion)
+        iface.smooth("VEC4", "spec_vis")
+        iface.smooth("FLOAT", "spec_occ")
+        occluded = f"  spec_vis = {transfer_vec4(mode)};\n{occlusion_lines(mode, count)}"
     info.vertex_out(iface)
     vertex = vertex.replace(
         "  gl_Position = mvp",
         "  spec_pos = prt_pos;\n  spec_nrm = prt_nrm;\n  spec_albedo = prt_albedo.rgb * tint.rgb * scale;\n"
-        f"  spec_vis = {transfer_vec4(mode)};\n{occlusion_lines(mode, count)}  gl_Position = mvp",
+        f"{occluded}  gl_Position = mvp",
         1,
     )
     main = "void main()\n{\n"
