@@ -154,3 +154,35 @@ def test_the_texel_occlusion_is_the_full_transfer_at_each_pixel(bpy_module, whit
     drawn = (image[..., 3] > 0.99) & np.isfinite(expected)
     assert drawn.sum() > 3000 and expected[drawn].min() < 0.1
     assert np.abs(image[..., 1] - expected)[drawn].max() < 1e-4
+
+
+def test_a_texel_floor_with_an_ior_map_draws_each_half_as_its_constant(bpy_module, white_plane):
+    """The floor with the box, a glossy dielectric whose IOR comes from an image (1.2 on u < 0.5,
+    2.0 on the other half): the IOR map's sampler and the texel tiles' are bound together, and each
+    half of the floor (less 3 pixels at the join) is the floor drawn with that half's constant IOR
+    within 1 % of its mean, the two halves' draws measurably apart."""
+    from helpers import spec_map_scenes as maps
+
+    from prt_addon import api
+
+    bpy = bpy_module
+    scene, plane = white_plane
+    bpy.ops.mesh.primitive_cube_add(size=0.8, location=(0.0, 0.3, 0.4))
+    api.bake([plane], order=8, samples=256, target="TEXELS", uv_map="UVMap", resolution=32)
+    plane.data.materials.append(maps.socket_material(bpy, "iors", maps.halves_image(bpy, "iors", 1.2, 2.0), "IOR")[0])
+    drawn = api.render_view(scene)
+    covered = drawn[..., 3] > 0.99
+    columns = np.arange(drawn.shape[1])[None, :]
+    halves = {1.2: covered & (columns < drawn.shape[1] // 2 - 3), 2.0: covered & (columns >= drawn.shape[1] // 2 + 3)}
+    expected = {}
+    for ior, mask in halves.items():
+        assert mask.sum() > 1000
+        plane.data.materials.clear()
+        material, bsdf = maps.principled(bpy, f"ior{ior}", roughness=0.2, metallic=0.0)
+        bsdf.inputs["IOR"].default_value = ior
+        plane.data.materials.append(material)
+        expected[ior] = api.render_view(scene)[..., :3]
+        error = np.abs(drawn[..., :3][mask] - expected[ior][mask]).max() / expected[ior][mask].mean()
+        assert error < 0.01, (ior, error)
+    apart = np.abs(expected[1.2] - expected[2.0])[halves[2.0]].mean() / expected[2.0][halves[2.0]].mean()
+    assert apart > 0.015, apart  # (measured 0.028: the white sky, mostly diffuse light)
