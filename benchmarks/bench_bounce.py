@@ -5,6 +5,7 @@ repository root:
     .venv/bin/python benchmarks/bench_bounce.py --quick    # smaller scene, smaller memory grid
     .venv/bin/python benchmarks/bench_bounce.py --no-memory --repeats 15    # the speed part only
     .venv/bin/python benchmarks/bench_bounce.py --room --no-memory    # an enclosed room instead
+    .venv/bin/python benchmarks/bench_bounce.py --room --no-memory --front-only    # its walls' back sides not baked
 
 Prints, on bench_bake.py's scene (subdivided Suzanne on a ground grid), medians [min - max] of
 interleaved repeats of the whole api.bake call with bounces = 0, 1 and 3 and their ratios to the
@@ -14,7 +15,12 @@ INTERSECT for the nearest triangle, which a bounced bake asks on half of them), 
 memory (VmHWM) of a direct and a 3-bounce bake of a 1M-vertex wavy grid in fresh processes.
 With --room the scene is an enclosed room instead (a closed box of inward-facing grids with a
 skylight, the same Suzanne inside): most rays hit a wall, so every
-bounce pass has about as many entries as there are hit-traced rays.
+bounce pass has about as many entries as there are hit-traced rays. The room's walls are open
+grids, so both bakes also bake their back sides (direct light only, the same work in both);
+--front-only leaves the back sides out, as for a room made of closed meshes. Besides the wall
+time, each bake's CPU time (every thread's, time.process_time) and its ratio are printed: on
+this shared machine the wall time moves with the other processes' load far more than the CPU
+time does.
 """
 
 import argparse
@@ -34,6 +40,7 @@ from bench_bake import build_scene, child_line, same_rays, spread, vm_kib, wavy_
 
 import prt_addon
 from prt_addon import api
+from prt_addon.blender.bake import job as bake_job
 from prt_addon.core.trace import raytrace
 
 
@@ -83,22 +90,28 @@ def enclosed_room(subdiv, cuts):
 
 def speed(args):
     objects = enclosed_room(args.subdiv, args.cuts) if args.room else build_scene(args.subdiv, args.grid)
+    if args.front_only:  # (the job's back-side step made to find no open mesh)
+        bake_job.back_computation = lambda job, plan: None
     points = sum(len(o.data.vertices) for o in objects)
     kind = "enclosed room" if args.room else "Suzanne on a ground grid"
     print(f"scene: {kind}, {points:,} vertices, order {args.order}, {args.samples} directions, {args.threads} threads")
     warm = api.bake(objects, order=args.order, samples=args.samples, threads=args.threads)
     print(f"  rays that hit a surface: {warm.rays_blocked / max(1, warm.rays_traced):.2f} of those traced")
     runs = {b: [] for b in (0, 1, 3)}
+    cpu = {b: [] for b in runs}
     reports = {}
     for _ in range(args.repeats):
         for bounces in runs:
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             reports[bounces] = api.bake(
                 objects, order=args.order, samples=args.samples, bounces=bounces, threads=args.threads
             )
             runs[bounces].append(time.perf_counter() - t0)
+            cpu[bounces].append(time.process_time() - c0)
+    print(f"  load average {os.getloadavg()[0]:.1f} at the end of the bakes")
     for bounces, seconds in runs.items():
         ratios = [s / d for s, d in zip(seconds, runs[0])]
+        cpu_ratios = [s / d for s, d in zip(cpu[bounces], cpu[0])]
         extra = f", passes {reports[bounces].bounce_seconds:.2f} s" if bounces else ""
         if bounces:  # this machine is noisy: three estimates of one ratio
             extra += (
@@ -106,6 +119,7 @@ def speed(args):
                 f" of minima {min(seconds) / min(runs[0]):.3f}"
             )
         print(f"  bounces={bounces}: {spread(seconds)} s, / direct {spread(ratios)}{extra}")
+        print(f"    CPU time {spread(cpu[bounces])} s, / direct {spread(cpu_ratios)}")
     vertices, triangles, _o, _d, batches = same_rays(objects, args.samples)
     occ = raytrace.EmbreeOccluder(vertices, triangles)
     occluded, intersect = [], []
@@ -153,6 +167,7 @@ def main():
     parser.add_argument("--side", type=int, default=1000)
     parser.add_argument("--no-memory", action="store_true", help="skip the 1M-vertex memory runs")
     parser.add_argument("--room", action="store_true", help="an enclosed room: most rays hit a wall")
+    parser.add_argument("--front-only", action="store_true", help="no back sides (as if every mesh were closed)")
     parser.add_argument("--cuts", type=int, default=60, help="--room: each wall's grid subdivisions")
     args = parser.parse_args()
     if args.memory_child >= 0:

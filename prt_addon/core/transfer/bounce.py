@@ -105,7 +105,8 @@ class Transport:
         step = max(1, GATHER_VALUES // max(1, nodes.shape[1] * x.shape[1] * x.shape[2]))
         for a in range(0, len(ids), step):
             index = nodes[a : a + step]
-            gathered = np.take(x, index, axis=0, out=self._gather_buffer(index.shape + x.shape[1:]))  # (S, K, Cx, nn)
+            # (S, K, Cx, nn); mode "clip" on valid indices: into `out`, the default "raise" is buffered.
+            gathered = np.take(x, index, axis=0, out=self._gather_buffer(index.shape + x.shape[1:]), mode="clip")
             w = weights[a : a + step]
             # Batched matmuls (S, C, 1, K) @ (S, C, K, nn): 2.5 to 7 times faster than einsum.
             if gathered.shape[2] == w.shape[2]:

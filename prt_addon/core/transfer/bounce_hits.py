@@ -137,7 +137,10 @@ class HitTransport:
         prims = np.asarray(prims)
         rows = np.asarray(rows)
         work, m = self._work, len(prims)
-        corners = np.take(self.corners, prims, axis=0, out=work.get("corners", 9 * m, np.float32).reshape(m, 9))
+        # (mode "clip" on valid indices: a take into `out` with the default mode "raise" is
+        # buffered, which cost as much again as the take.)
+        buffer = work.get("corners", 9 * m, np.float32).reshape(m, 9)
+        corners = np.take(self.corners, prims, axis=0, out=buffer, mode="clip")
         ud, vd, det = hit_barycentrics(corners, origins, dirs, work)
         remapped = None if self.remap is None else self.remap(prims, ud, vd, det)  # (before ud, vd change)
         hit = self.hit_albedo
@@ -156,7 +159,7 @@ class HitTransport:
         index += second
         index += second
         index -= first
-        nodes = self._corner_nodes[index]
+        nodes = np.take(self._corner_nodes, index, mode="clip")  # (a third of the indexing's time)
         keep = np.greater(det, 0.0, out=work.get("keep", m, np.bool_))  # det = -w . ((b - a) x (c - a)): a front face
         if remapped is not None:
             nodes[remapped[0]] = remapped[1]
@@ -168,7 +171,7 @@ class HitTransport:
             prims, cosines, rows, nodes = prims[keep], cosines[keep], rows[keep], nodes[keep]
             if hit is not None:
                 b1, b2 = b1[keep], b2[keep]
-        weights = np.take(self._weights, prims, axis=0)
+        weights = np.take(self._weights, prims, axis=0, mode="clip")
         if hit is not None:
             which, rho = hit(prims, b1, b2)
             weights[which] = rho[:, : self.channels] * np.float32(self.scale)

@@ -298,14 +298,13 @@ class TransferComputation:
                 stats.rays_traced += n_trace
                 n_hit = int(np.count_nonzero(hit))
                 stats.occluded_rays += n_hit
-                if n_hit:
-                    # (a take by the hits' positions: 3 times faster than np.compress, same values)
-                    hit_flat = np.take(flat, np.flatnonzero(hit), out=self._workspace()["index"][:n_hit])
-                    if keep_hits:
-                        which, cols = np.flatnonzero(hit), k1 - k0
+                if n_hit:  # (a take by the hits' positions: 3 times faster than np.compress, same values)
+                    hit_flat = np.take(flat, which := np.flatnonzero(hit), out=self._workspace()["index"][:n_hit])
+                    if keep_hits:  # (np.divmod: each hit's point and direction in one pass)
                         cosines = weight.reshape(-1)[hit_flat] * self.hit_weight
                         hits = (_xyz(np.take(rays_d, which)), cosines, prims[which], _xyz(np.take(rays_o, which)))
-                        entries.append(self.hit_sink(lo + hit_flat // cols, k0 + hit_flat % cols, *hits))
+                        row, kdir = np.divmod(hit_flat, k1 - k0)
+                        entries.append(self.hit_sink(np.add(row, lo, out=row), np.add(kdir, k0, out=kdir), *hits))
                     weight.reshape(-1)[hit_flat] = 0.0  # (np.put is several times slower)
             # Split the block at the group boundaries of the permuted direction order.
             for g in range(len(bounds) - 1):
