@@ -235,17 +235,19 @@ class TransferComputation:
             above[~needs] = False
         flat = np.flatnonzero(above)
         # Rays are point-major: each origin is repeated once per direction it traces (a take()
-        # by flat // cols into a reused buffer: np.repeat's fresh array cost twice as much); the
+        # by flat // cols into a reused buffer: np.repeat's fresh array cost twice as much; mode
+        # clip, as the indices are in range: "raise" takes into a temporary, then copies); the
         # direction is flat - cols (flat // cols), 4 times cheaper than an integer remainder; for
         # a power-of-two cols (256 directions, 64 per texel sample) a shift and a mask, cheaper still.
         index, out = ws["index"][: len(flat)], ws["origins"][: len(flat)]
         if cols & (cols - 1) == 0:
-            origins = np.take(self.origins16[lo:hi], np.right_shift(flat, cols.bit_length() - 1, out=index), out=out)
+            shifted = np.right_shift(flat, cols.bit_length() - 1, out=index)
+            origins = np.take(self.origins16[lo:hi], shifted, out=out, mode="clip")
             np.bitwise_and(flat, cols - 1, out=index)
         else:
-            origins = np.take(self.origins16[lo:hi], np.floor_divide(flat, cols, out=index), out=out)
+            origins = np.take(self.origins16[lo:hi], np.floor_divide(flat, cols, out=index), out=out, mode="clip")
             np.subtract(flat, np.multiply(index, cols, out=index), out=index)
-        dirs = np.take(self.dirs16[k0:k1], index, out=ws["dirs"][: len(flat)])
+        dirs = np.take(self.dirs16[k0:k1], index, out=ws["dirs"][: len(flat)], mode="clip")
         return weight, n_above, flat, origins, dirs
 
     def _blocks(self):
@@ -299,7 +301,8 @@ class TransferComputation:
                 n_hit = int(np.count_nonzero(hit))
                 stats.occluded_rays += n_hit
                 if n_hit:  # (a take by the hits' positions: 3 times faster than np.compress, same values)
-                    hit_flat = np.take(flat, which := np.flatnonzero(hit), out=self._workspace()["index"][:n_hit])
+                    which = np.flatnonzero(hit)
+                    hit_flat = np.take(flat, which, out=self._workspace()["index"][:n_hit], mode="clip")
                     if keep_hits:  # (np.divmod: each hit's point and direction in one pass)
                         cosines = weight.reshape(-1)[hit_flat] * self.hit_weight
                         hits = (_xyz(np.take(rays_d, which)), cosines, prims[which], _xyz(np.take(rays_o, which)))
