@@ -11,8 +11,10 @@ no bounce) is the reference. Per wall, over the grid points the camera sees:
   one ray per sample, 16 per light); dense: the lights traced over 1024 power cells per light;
   cycles: Cycles' DIRECT bake of the wall into its own 0..1 UV square (32 x 32 texels).
 Printed: per HDRI and wall the mean of view / shade / Cycles, RMS of view and shade against
-Cycles (relative to Cycles' RMS), and RMS of the view's and api.shade's split-light part against
-the dense trace (relative to its RMS). --root: run another checkout's add-on (e.g. main, before).
+Cycles (relative to Cycles' RMS), RMS of the view's and api.shade's split-light part against
+the dense trace (relative to its RMS), and the second differences of the view's split-light part
+along the wall over the dense trace's (helpers.skylight_quads.second_differences: 1 is as smooth
+as the trace, streaks and steps add to it). --root: run another checkout's add-on (e.g. main, before).
 """
 
 import argparse
@@ -53,9 +55,10 @@ def main():
     prt_addon.register()
     assert offscreen.ensure_gpu()
     print(
-        "| HDRI | wall | mean view / api.shade / Cycles | view vs Cycles | api.shade vs Cycles | lights: view vs traced | api.shade vs traced |"
+        "| HDRI | wall | mean view / api.shade / Cycles | view vs Cycles | api.shade vs Cycles | lights: view vs traced | api.shade vs traced "
+        "| second differences: view / traced |"
     )
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|")
     for hdri in args.hdris.split(","):
         bpy.ops.wm.read_factory_settings(use_empty=True)
         scene = bpy.context.scene
@@ -90,8 +93,9 @@ def main():
                 against = "- | -"
             if lights and np.sqrt(np.mean(w["dense"] ** 2)) > 0.02 * w["total"].mean():
                 traced = f"{100 * room.relative_rms(w['view'], w['dense']):.0f} % | {100 * room.relative_rms(w['shade'], w['dense']):.0f} %"
+                traced += f" | {room.second_differences(w, 'view') / room.second_differences(w, 'dense'):.2f}"
             else:
-                traced = f"({w['view'].mean():.5f} / {w['dense'].mean():.5f}) | -"
+                traced = f"({w['view'].mean():.5f} / {w['dense'].mean():.5f}) | - | -"
             print(f"| {hdri} | {name} | {means} | {against} | {traced} |", flush=True)
     prt_addon.unregister()
 

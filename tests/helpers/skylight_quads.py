@@ -200,6 +200,18 @@ def wall_samples(bpy, scene, lights_image, sky_image, lights, dense):
     return out
 
 
+def second_differences(wall, key):
+    """RMS of the second differences of wall[key] (a wall of wall_samples) along the wall: between
+    neighbouring grid points of one row (the quad's first edge: across the wall at one height),
+    over the triples the camera sees. A smooth gradient has nearly none; a step, a streak or a
+    ripple at the grid's spacing (6.4 cm on a 4 m wall) adds its height."""
+    i, j = wall["grid"]
+    grid = np.full((GRID, GRID), np.nan)
+    grid[i, j] = wall[key]
+    second = grid[2:] - 2.0 * grid[1:-1] + grid[:-2]
+    return float(np.sqrt(np.nanmean(second**2)))
+
+
 def relative_rms(values, reference):
     """RMS of values - reference over the RMS of the reference."""
     return float(np.sqrt(np.mean((values - reference) ** 2)) / max(np.sqrt(np.mean(reference**2)), 1e-12))

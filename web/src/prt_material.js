@@ -6,7 +6,7 @@
 // (light[ch * count + k] = L_{4k..4k+3} of channel ch, in the node's local frame). The split
 // lights add albedo * sum_v P_v/pi * C_v * V_v per pixel over their shadow views (shadows.js):
 // C_v = sum_j w_j max(0, n.s_j) over the view's samples, V_v PCSS on the view's map over
-// Vogel-disc taps, the same filter as Blender's (fewer taps for a wide light's views). Output is
+// Vogel-disc taps, the same filter as Blender's (other tap counts for a wide light's views). Output is
 // linear radiance times exposureScale (2^stops), then three.js's own tone mapping and output
 // colour space (renderer.toneMapping, outputColorSpace; none when drawing into a render target):
 // NoToneMapping and sRGB output is Blender's "Standard" view.
@@ -19,6 +19,7 @@ import {
   MIN_COSINE,
   PCF_TAPS,
   WIDE_BLOCKER_TAPS,
+  WIDE_FIRST_TAPS,
   WIDE_MAX_RADIUS,
   WIDE_PCF_TAPS,
 } from './shadows.js';
@@ -156,12 +157,19 @@ float sunDepth(sampler2DArray maps, vec2 xy, float layer, float res) {
 }
 
 vec2 vogel(int i, int n) {
-  float r = sqrt((float(i) + 0.5) / float(n));
   float a = float(i) * 2.3999632;
-  return r * vec2(cos(a), sin(a));
+  return sqrt((float(i) + 0.5) / float(n)) * vec2(cos(a), sin(a));
 }
 
-float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pcfTaps, float maxRadius) {
+// (weight x lit, weight) of the PCF tap at o; 2 biases behind the receiver's plane (past a join): its mirror tap.
+vec2 pcfTap(sampler2DArray maps, float layer, float res, vec3 q, vec2 grad, float bias, vec2 o, float facing, vec2 tilt) {
+  float w = max(facing + dot(tilt, o), 0.0);
+  float d = sunDepth(maps, q.xy + o, layer, res);
+  if (d > q.z + dot(grad, floor(q.xy + o) + 0.5 - q.xy) + 2.0 * bias) { o = -o; d = sunDepth(maps, q.xy + o, layer, res); }
+  return w * vec2(step(q.z + dot(grad, floor(q.xy + o) + 0.5 - q.xy) - bias, d), 1.0);
+}
+
+float viewVisibility(sampler2DArray maps, int v, vec3 n, int blockerTaps, int pcfTaps, int firstTaps, float maxRadius) {
   vec4 p = vec4(worldPos, 1.0);
   vec3 q = vec3(dot(sunRows[3 * v], p), dot(sunRows[3 * v + 1], p), dot(sunRows[3 * v + 2], p));
   // A view whose direction is below the receiver's horizon looks through it: no light.
@@ -195,22 +203,16 @@ ${contact ? CONTACT_LINES : ''}  float search = clamp(q.z * tanA / texel, 1.0, m
   }
   if (found == 0.0) return 1.0;
   float radius = clamp((q.z - sum / found) * tanA / texel, 0.5, maxRadius);
-  // Tap o is the disc's direction s + tanA (o / radius) . (t, b): weighted by its cosine, none
-  // below the receiver's horizon (display/shader_suns.py).
+  // Tap o is the disc's direction s + tanA (o / radius) . (t, b): weighted by its cosine, none below the horizon.
   vec2 tilt = vec2(dot(n, sunRows[3 * v].xyz), dot(n, sunRows[3 * v + 1].xyz)) * (texel * tanA / radius);
-  float lit = 0.0;
-  float weight = 0.0;
-  for (int i = 0; i < pcfTaps; i++) {
-    vec2 o = radius * vogel(i, pcfTaps);
-    vec2 xy = q.xy + o;
-    float w = max(facing + dot(tilt, o), 0.0);
-    weight += w;
-    float d = sunDepth(maps, xy, layer, res);
-    // 2 biases behind the receiver's plane (past a join): the mirror tap (display/shader_suns.py).
-    if (d > q.z + dot(grad, floor(xy) + 0.5 - q.xy) + 2.0 * bias) { xy = q.xy - o; d = sunDepth(maps, xy, layer, res); }
-    lit += w * step(q.z + dot(grad, floor(xy) + 0.5 - q.xy) - bias, d);
+  // Every stride-th tap first, the others only where those disagree (display/shader_suns.py).
+  int stride = pcfTaps / firstTaps;
+  vec2 lit = vec2(0.0);
+  for (int i = 0; i < pcfTaps; i += stride) lit += pcfTap(maps, layer, res, q, grad, bias, radius * vogel(i, pcfTaps), facing, tilt);
+  if (stride > 1 && lit.x > 0.0 && lit.x < lit.y) {
+    for (int i = 0; i < pcfTaps; i++) if (i % stride != 0) lit += pcfTap(maps, layer, res, q, grad, bias, radius * vogel(i, pcfTaps), facing, tilt);
   }
-  return weight > 0.0 ? lit / weight : 0.0;
+  return lit.y > 0.0 ? lit.x / lit.y : 0.0;
 }
 `;
 
@@ -241,8 +243,8 @@ function sunLoop(layout, glossy) {
       lines.push(`  c += sunSamples[${j}].w * max(dot(n, sunSamples[${j}].xyz), 0.0);`);
     first += count;
     const visibility = wide
-      ? `viewVisibility(wideMaps, ${v}, n, ${WIDE_BLOCKER_TAPS}, ${WIDE_PCF_TAPS}, ${WIDE_MAX_RADIUS.toFixed(1)})`
-      : `viewVisibility(sharpMaps, ${v}, n, ${BLOCKER_TAPS}, ${PCF_TAPS}, ${MAX_RADIUS.toFixed(1)})`;
+      ? `viewVisibility(wideMaps, ${v}, n, ${WIDE_BLOCKER_TAPS}, ${WIDE_PCF_TAPS}, ${WIDE_FIRST_TAPS}, ${WIDE_MAX_RADIUS.toFixed(1)})`
+      : `viewVisibility(sharpMaps, ${v}, n, ${BLOCKER_TAPS}, ${PCF_TAPS}, ${PCF_TAPS}, ${MAX_RADIUS.toFixed(1)})`;
     lines.push(
       `  if (c > 0.0) {`,
       `    vis = useShadows ? ${visibility} : 1.0;`,

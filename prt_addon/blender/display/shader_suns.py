@@ -14,7 +14,8 @@ does not grow with the filter's radius. A PCF tap stands for one direction of th
 counts with its cosine to the receiver, none below the receiver's horizon (where a map seeing the
 receiver edge-on holds nothing); a view whose own direction is below that horizon gives 0. A PCF
 tap whose map depth is far behind the receiver's plane (past a join, where that plane is no
-surface) reads the tap mirrored through the centre instead.
+surface) reads the tap mirrored through the centre instead. A wide light's view reads every
+sixth of its PCF taps first and the rest only where those disagree (its penumbra).
 """
 
 import gpu
@@ -30,7 +31,8 @@ WIDE_SLOT = 2  # the wide lights' views' maps
 BLOCKER_TAPS = 12
 PCF_TAPS = 16
 WIDE_BLOCKER_TAPS = 6  # a wide light's views: many maps average out, each one filters less
-WIDE_PCF_TAPS = 8
+WIDE_PCF_TAPS = 48  # in a penumbra: 8 left faint streaks (docs/display.md, "Streaks")
+WIDE_FIRST_TAPS = 8  # the wide PCF taps read first; the rest only where these disagree
 MAX_RADIUS = 64.0  # texels: widest penumbra filtered (a compact light's map, at 2048)
 WIDE_MAX_RADIUS = 24.0  # texels: a wide light's view's (1024): wider reaches past joins and edges
 MAX_SLOPE = 20.0  # tan of the receiver's angle to the light, capped for the bias
@@ -82,7 +84,26 @@ float view_cosine(vec3 n, int v)
   return sum;
 }}
 
-float view_visibility(sampler2D maps, int v, vec3 n, int blocker_taps, int pcf_taps, float max_radius)
+vec2 pcf_tap(sampler2D maps, ivec2 origin, float res, vec3 q, vec2 grad, float bias, vec2 o, float facing, vec2 tilt)
+{{
+  // (weight x lit, weight) of the PCF tap at offset o: its direction's cosine, 0 below the horizon.
+  float w = max(facing + dot(tilt, o), 0.0);
+  // A tap whose column holds nothing at or near the receiver's plane, only far behind it (past
+  // a join, where that plane goes outside a closed room or under the floor; past the map),
+  // reads its mirror tap instead: lit only if that one is.
+  vec2 xy = q.xy + o;
+  float plane = q.z + dot(grad, floor(xy) + 0.5 - q.xy);
+  float d = sun_depth(maps, xy, origin, res);
+  if (d > plane + {MIRROR_BEHIND} * bias) {{
+    xy = q.xy - o;
+    plane = q.z + dot(grad, floor(xy) + 0.5 - q.xy);
+    d = sun_depth(maps, xy, origin, res);
+  }}
+  return vec2(w * step(plane - bias, d), w);
+}}
+
+float view_visibility(sampler2D maps, int v, vec3 n, int blocker_taps, int pcf_taps, int first_taps,
+                      float max_radius)
 {{
   vec4 p = vec4(local_pos, 1.0);
   vec3 q = vec3(dot(suns.to_light[3 * v], p), dot(suns.to_light[3 * v + 1], p),
@@ -136,25 +157,22 @@ float view_visibility(sampler2D maps, int v, vec3 n, int blocker_taps, int pcf_t
   // Tap o stands for the direction s + tan(angle) (o / radius) . (t, b) of the view's disc: it
   // counts with that direction's cosine n . s', and not at all below the receiver's horizon.
   vec2 tilt = vec2(dot(n, suns.axes[2 * v].xyz), dot(n, suns.axes[2 * v + 1].xyz)) * (tan_a / radius);
-  float lit = 0.0;
-  float weight = 0.0;
-  for (int i = 0; i < pcf_taps; i++) {{
-    vec2 o = radius * vogel(i, pcf_taps);
-    vec2 xy = q.xy + o;
-    float w = max(facing + dot(tilt, o), 0.0);
-    weight += w;
-    // A tap whose column holds nothing at or near the receiver's plane, only far behind it (past
-    // a join, where that plane goes outside a closed room or under the floor; past the map),
-    // reads its mirror tap instead: lit only if that one is.
-    float plane = q.z + dot(grad, floor(xy) + 0.5 - q.xy);
-    float d = sun_depth(maps, xy, origin, res);
-    if (d > plane + {MIRROR_BEHIND} * bias) {{
-      xy = q.xy - o;
-      plane = q.z + dot(grad, floor(xy) + 0.5 - q.xy);
-      d = sun_depth(maps, xy, origin, res);
-    }}
-    lit += w * step(plane - bias, d);
+  // Every stride-th tap first (spread over the whole disc); the others only where those disagree
+  // (a penumbra), as the light is all seen or all hidden where they agree.
+  int stride = pcf_taps / first_taps;
+  vec2 sum_lit = vec2(0.0);
+  for (int i = 0; i < pcf_taps; i += stride) {{
+    sum_lit += pcf_tap(maps, origin, res, q, grad, bias, radius * vogel(i, pcf_taps), facing, tilt);
   }}
+  if (stride > 1 && sum_lit.x > 0.0 && sum_lit.x < sum_lit.y) {{
+    for (int i = 0; i < pcf_taps; i++) {{
+      if (i % stride != 0) {{
+        sum_lit += pcf_tap(maps, origin, res, q, grad, bias, radius * vogel(i, pcf_taps), facing, tilt);
+      }}
+    }}
+  }}
+  float lit = sum_lit.x;
+  float weight = sum_lit.y;
   return weight > 0.0 ? lit / weight : 0.0;
 }}
 """
@@ -167,14 +185,17 @@ def view_layout(shadow_set):
     return len(shadow_set.maps) - wide, wide
 
 
-def _view_lines(v, maps, cosine, blocker_taps, pcf_taps, max_radius, specular=False):
+def _view_lines(v, maps, cosine, taps, max_radius, specular=False):
     """GLSL adding view `v`'s light (a literal index, or a loop variable's name) to `sun`, and
-    with `specular` its GGX (shader_specular.sun_specular) to `sun_spec`."""
+    with `specular` its GGX (shader_specular.sun_specular) to `sun_spec`; taps: (blocker, PCF,
+    first PCF) tap counts."""
+    blocker_taps, pcf_taps, first_taps = taps
     if specular:
         return (
             f"  c = {cosine}(n, {v});\n"
             "  if (c > 0.0) {\n"
-            f"    float vis = view_visibility({maps}, {v}, n, {blocker_taps}, {pcf_taps}, {max_radius:.1f});\n"
+            f"    float vis = view_visibility({maps}, {v}, n, {blocker_taps}, {pcf_taps}, {first_taps}, "
+            f"{max_radius:.1f});\n"
             f"    sun += suns.power[{v}].rgb * (c * vis);\n"
             "    if (spec.material.w > 0.0) {\n"
             f"      sun_spec += suns.power[{v}].rgb * (sun_specular({v}) * (vis * suns.params[{v}].w));\n"
@@ -185,7 +206,7 @@ def _view_lines(v, maps, cosine, blocker_taps, pcf_taps, max_radius, specular=Fa
         f"  c = {cosine}(n, {v});\n"
         "  if (c > 0.0) {\n"
         f"    sun += suns.power[{v}].rgb * (c * view_visibility({maps}, {v}, n, {blocker_taps}, {pcf_taps}, "
-        f"{max_radius:.1f}));\n"
+        f"{first_taps}, {max_radius:.1f}));\n"
         "  }\n"
     )
 
@@ -218,13 +239,20 @@ def add_suns(info, layout, vertex_source, attr_index, specular=False):
     # bound (not unrolled, as its body is large) made the frame slower (docs/display.md).
     # Wide views stay in one loop: written out they were no faster and compile to far more code.
     views = [
-        _view_lines(v, "sharp_maps", "compact_cosine", BLOCKER_TAPS, PCF_TAPS, MAX_RADIUS, specular)
+        _view_lines(v, "sharp_maps", "compact_cosine", (BLOCKER_TAPS, PCF_TAPS, PCF_TAPS), MAX_RADIUS, specular)
         for v in range(compact)
     ]
     if wide:
         views.append(
             f"  for (int v = {compact}; v < {compact + wide}; v++) {{\n"
-            + _view_lines("v", "wide_maps", "view_cosine", WIDE_BLOCKER_TAPS, WIDE_PCF_TAPS, WIDE_MAX_RADIUS, specular)
+            + _view_lines(
+                "v",
+                "wide_maps",
+                "view_cosine",
+                (WIDE_BLOCKER_TAPS, WIDE_PCF_TAPS, WIDE_FIRST_TAPS),
+                WIDE_MAX_RADIUS,
+                specular,
+            )
             + "  }\n"
         )
     fragment = _FUNCTIONS + (
