@@ -27,6 +27,7 @@ from ...core.specular import occlusion
 
 SKY_SLOT = 3
 BRDF_SLOT = 4
+OCC_SLOT = 10  # the full transfer's occlusion per vertex (spec_occlusion; 9 is the colour table)
 Y0 = 0.28209479177387814
 ROUGH_FROM, ROUGH_SPAN = 0.3, 0.3  # cones below roughness 0.3, the full transfer above 0.6
 MAX_BAND_ORDER = 32
@@ -257,26 +258,37 @@ def occlusion_lines(mode, count):
     return "\n".join(lines) + "\n"
 
 
+# The frame's vertex shader: its vertex's texel of the occlusion drawn by spec_occlusion's pass.
+# (2^OCC_WIDTH_BITS texels a row: shifts, where an integer division is lane by lane on llvmpipe)
+OCC_WIDTH_BITS = 12
+OCCLUSION_READ = (
+    f"  spec_occ = texelFetch(occ_tx, ivec2(gl_VertexID & {(1 << OCC_WIDTH_BITS) - 1}, "
+    f"gl_VertexID >> {OCC_WIDTH_BITS}), 0).r;\n"
+)
+
+
 def add_specular(info, vertex, fragment, mode, nrm_index, has_suns, count=1):
     """Declare the specular inputs on `info`; -> (vertex, fragment) sources. nrm_index: the
-    attribute slot of prt_nrm (declared here unless the suns declared it)."""
+    attribute slot of prt_nrm (declared here unless the suns declared it). A vertex or corner
+    bake reads its full-transfer occlusion from occ_tx (spec_occlusion)."""
     info.uniform_buf(2, "PRTSpec", "spec")
     info.sampler(SKY_SLOT, "FLOAT_3D", "sky_tx")
     info.sampler(BRDF_SLOT, "FLOAT_2D", "brdf_tx")
+    if mode != "TEXEL":
+        info.sampler(OCC_SLOT, "FLOAT_2D", "occ_tx")
     if not has_suns:
         info.vertex_in(nrm_index, "VEC3", "prt_nrm")
     iface = gpu.types.GPUStageInterfaceInfo("prt_spec_iface")
     iface.smooth("VEC3", "spec_pos")
     iface.smooth("VEC3", "spec_nrm")
     iface.smooth("VEC3", "spec_albedo")
+    own = "  spec_pos = prt_pos;\n  spec_nrm = prt_nrm;\n  spec_albedo = prt_albedo.rgb * tint.rgb * scale;\n"
     iface.smooth("VEC4", "spec_vis")
     iface.smooth("FLOAT", "spec_occ")
     info.vertex_out(iface)
+    occ = occlusion_lines(mode, count) if mode == "TEXEL" else OCCLUSION_READ
     vertex = vertex.replace(
-        "  gl_Position = mvp",
-        "  spec_pos = prt_pos;\n  spec_nrm = prt_nrm;\n  spec_albedo = prt_albedo.rgb * tint.rgb * scale;\n"
-        f"  spec_vis = {transfer_vec4(mode)};\n{occlusion_lines(mode, count)}  gl_Position = mvp",
-        1,
+        "  gl_Position = mvp", f"{own}  spec_vis = {transfer_vec4(mode)};\n{occ}  gl_Position = mvp", 1
     )
     main = "void main()\n{\n"
     assert main in fragment and "FragColor = vec4(display_transform(" in fragment
@@ -331,8 +343,8 @@ def bind_textures(shader, spec_frame):
     shader.uniform_sampler("brdf_tx", table)
 
 
-def bind_slot(shader, state, slot, matrix_world, spec_frame, params, extra=b""):
-    """Bind material slot `slot`'s PRTSpec block (one uniform buffer per object and slot, updated
+def slot_ubo(state, slot, matrix_world, spec_frame, params, extra=b""):
+    """Material slot `slot`'s PRTSpec block (one uniform buffer per object and slot, updated
     when it changed); params: principled_specular's triple or None (diffuse only); extra: bytes
     of the members after the block's own (material_maps)."""
     eye, rows, sky, _table = spec_frame
@@ -349,4 +361,4 @@ def bind_slot(shader, state, slot, matrix_world, spec_frame, params, extra=b""):
     elif state.spec_bytes.get(slot) != data:
         ubo.update(data)
     state.spec_bytes[slot] = data
-    shader.uniform_block("spec", ubo)
+    return ubo
