@@ -266,6 +266,9 @@ OCCLUSION_READ = (
     f"gl_VertexID >> {OCC_WIDTH_BITS}), 0).r;\n"
 )
 
+# With split lights the sun shader's own varyings hold the same position, normal and albedo.
+_SUN_VARYINGS = "#define spec_pos local_pos\n#define spec_nrm local_nrm\n#define spec_albedo surface_albedo\n"
+
 
 def add_specular(info, vertex, fragment, mode, nrm_index, has_suns, count=1):
     """Declare the specular inputs on `info`; -> (vertex, fragment) sources. nrm_index: the
@@ -279,10 +282,12 @@ def add_specular(info, vertex, fragment, mode, nrm_index, has_suns, count=1):
     if not has_suns:
         info.vertex_in(nrm_index, "VEC3", "prt_nrm")
     iface = gpu.types.GPUStageInterfaceInfo("prt_spec_iface")
-    iface.smooth("VEC3", "spec_pos")
-    iface.smooth("VEC3", "spec_nrm")
-    iface.smooth("VEC3", "spec_albedo")
-    own = "  spec_pos = prt_pos;\n  spec_nrm = prt_nrm;\n  spec_albedo = prt_albedo.rgb * tint.rgb * scale;\n"
+    own = "" if has_suns else "  spec_pos = prt_pos;\n  spec_nrm = prt_nrm;\n"
+    if not has_suns:
+        iface.smooth("VEC3", "spec_pos")
+        iface.smooth("VEC3", "spec_nrm")
+        iface.smooth("VEC3", "spec_albedo")
+        own += "  spec_albedo = prt_albedo.rgb * tint.rgb * scale;\n"
     iface.smooth("VEC4", "spec_vis")
     iface.smooth("FLOAT", "spec_occ")
     info.vertex_out(iface)
@@ -298,7 +303,7 @@ def add_specular(info, vertex, fragment, mode, nrm_index, has_suns, count=1):
     head, tail = fragment.split("FragColor = vec4(display_transform(", 1)
     expr, rest = tail.rsplit("), 1.0);", 1)
     fragment = head + f"FragColor = vec4(display_transform(spec_shade({expr}, sun_spec)), 1.0);" + rest
-    return vertex, _FUNCTIONS + (_SUN_FUNCTION if has_suns else "") + fragment
+    return vertex, (_SUN_VARYINGS if has_suns else "") + _FUNCTIONS + (_SUN_FUNCTION if has_suns else "") + fragment
 
 
 def spec_ubo_bytes(matrix_world, frame, eye, sky_rows, sky, material):
