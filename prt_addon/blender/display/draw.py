@@ -84,11 +84,15 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
         entry = get_mesh_entry(obj.data, info, albedo_mode, albedo_attr, obj, depsgraph, sources, map_uvs)
         if not entry.batches:
             continue
-        shader = get_shader(
-            info.count, layout, info.channels, info.domain, specular, entry.textured, info.back, bool(spec_maps)
-        )
         state = _object_cache.setdefault(obj.as_pointer(), ObjectState())
         mw = np.array(obj.matrix_world, dtype=np.float64)
+        # Before the frame's shader is bound: the occlusion passes bind their own.
+        slots, inline = (
+            _specular_slots(state, entry, info, mw, spec_frame, slot_specular, spec_maps) if specular else ({}, False)
+        )
+        shader = get_shader(
+            info.count, layout, info.channels, info.domain, specular, entry.textured, info.back, bool(spec_maps), inline
+        )
         size_key = (info.count, info.channels)
         light_key = (light_tag, mw[:3, :3].tobytes(), info.order, size_key, lights_tag if info.channels else None)
         if state.ubo is None or state.light_key != light_key:
@@ -100,8 +104,6 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
             else:
                 state.ubo.update(data)
             state.light_key = light_key
-        # Before the frame's shader is bound: the occlusion passes bind their own.
-        slots = _specular_slots(state, entry, info, mw, spec_frame, slot_specular, spec_maps) if specular else {}
         shader.bind()
         shader.uniform_float("mvp", vp @ obj.matrix_world)
         shader.uniform_float("scale", float(scale))
@@ -154,12 +156,17 @@ def _slot_albedo(obj, sources, textured):
 
 
 def _specular_slots(state, entry, info, mw, spec_frame, slot_specular, spec_maps):
-    """Per material slot drawn: (its PRTSpec block, its map textures or None, its full-transfer
-    occlusion texture, drawn again by spec_occlusion when the view, the object or the lobe
-    changed; None for a texel bake, a white texel for a slot drawn diffuse only)."""
+    """({material slot drawn: (its PRTSpec block, its map textures or None, its full-transfer
+    occlusion texture or None)}, whether the frame sums that occlusion itself). While the view
+    (or the object, or a lobe) changes from one draw to the next, the frame sums it in its vertex
+    shader as it always did; at the first draw that sees the same view again spec_occlusion draws
+    it into the slot's texture, which the frame then reads (a white texel for a slot drawn
+    diffuse only; None for a texel bake or an inline draw)."""
     total = transfer_vec4s(info.count, info.channels, info.back)
     mode = shader_mode(total, info.domain, entry.textured)
-    out = {}
+    if state.spec_seen is None:
+        state.spec_seen = {}
+    out, keys = {}, {}
     for mat_index, _batch in entry.batches:
         slot = min(mat_index, len(slot_specular) - 1)
         if slot in out:
@@ -169,13 +176,20 @@ def _specular_slots(state, entry, info, mw, spec_frame, slot_specular, spec_maps
             maps = spec_maps[min(slot, len(spec_maps) - 1)]
             data = material_maps.slot_data(maps, params if params is not None else (0.5, 0.0, 0.04))
             params, extra, textures = (data[0] if params is not None else None), data[1], data[2]
-        ubo = slot_ubo(state, slot, mw, spec_frame, params, extra)
-        occ = None if mode == "TEXEL" else albedo_texture.white()  # (a diffuse-only slot reads none)
+        out[slot] = (slot_ubo(state, slot, mw, spec_frame, params, extra), textures, None)
         if mode != "TEXEL" and params is not None:
-            key = spec_occlusion.view_key(spec_frame, mw, params, extra)
-            occ = spec_occlusion.update(state, slot, entry, ubo, key, (mode, info.count, total, bool(spec_maps)))
+            keys[slot] = (entry, spec_occlusion.view_key(spec_frame, mw, params, extra))
+    inline = any(state.spec_seen.get(slot) != key for slot, key in keys.items())
+    state.spec_seen = keys
+    if mode == "TEXEL" or inline:
+        return out, inline
+    layout = (mode, info.count, total, bool(spec_maps))
+    for slot, (ubo, textures, _none) in out.items():
+        occ = albedo_texture.white()  # (a diffuse-only slot reads none)
+        if slot in keys:
+            occ = spec_occlusion.update(state, slot, entry, ubo, keys[slot][1], layout)
         out[slot] = (ubo, textures, occ)
-    return out
+    return out, False
 
 
 def _relit(state, entry, count, channels):

@@ -41,6 +41,7 @@ class ObjectState:
         "spec_ubo",
         "spec_bytes",
         "spec_occ",
+        "spec_seen",
     )
 
     def __init__(self):
@@ -53,6 +54,7 @@ class ObjectState:
         self.spec_ubo = None
         self.spec_bytes = None
         self.spec_occ = None  # material slot -> spec_occlusion.Occlusion
+        self.spec_seen = None  # material slot -> what its occlusion depended on at the last draw
 
 
 _mesh_cache = {}  # (mesh pointer, object pointer or 0 when undeformed) -> MeshEntry

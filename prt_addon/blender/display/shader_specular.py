@@ -270,14 +270,16 @@ OCCLUSION_READ = (
 _SUN_VARYINGS = "#define spec_pos local_pos\n#define spec_nrm local_nrm\n#define spec_albedo surface_albedo\n"
 
 
-def add_specular(info, vertex, fragment, mode, nrm_index, has_suns, count=1):
+def add_specular(info, vertex, fragment, mode, nrm_index, has_suns, count=1, inline=False):
     """Declare the specular inputs on `info`; -> (vertex, fragment) sources. nrm_index: the
     attribute slot of prt_nrm (declared here unless the suns declared it). A vertex or corner
-    bake reads its full-transfer occlusion from occ_tx (spec_occlusion)."""
+    bake reads its full-transfer occlusion from occ_tx (spec_occlusion), or with `inline` sums it
+    in the vertex shader (while the view moves)."""
     info.uniform_buf(2, "PRTSpec", "spec")
     info.sampler(SKY_SLOT, "FLOAT_3D", "sky_tx")
     info.sampler(BRDF_SLOT, "FLOAT_2D", "brdf_tx")
-    if mode != "TEXEL":
+    inline = inline or mode == "TEXEL"
+    if not inline:
         info.sampler(OCC_SLOT, "FLOAT_2D", "occ_tx")
     if not has_suns:
         info.vertex_in(nrm_index, "VEC3", "prt_nrm")
@@ -291,7 +293,7 @@ def add_specular(info, vertex, fragment, mode, nrm_index, has_suns, count=1):
     iface.smooth("VEC4", "spec_vis")
     iface.smooth("FLOAT", "spec_occ")
     info.vertex_out(iface)
-    occ = occlusion_lines(mode, count) if mode == "TEXEL" else OCCLUSION_READ
+    occ = occlusion_lines(mode, count) if inline else OCCLUSION_READ
     vertex = vertex.replace(
         "  gl_Position = mvp", f"{own}  spec_vis = {transfer_vec4(mode)};\n{occ}  gl_Position = mvp", 1
     )
