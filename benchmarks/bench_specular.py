@@ -4,8 +4,11 @@ memory and build time of the prefiltered sky, and the BRDF table's build time.
 
     .venv/bin/python benchmarks/bench_specular.py [--triangles 1000000] [--frames 11] [--size 512]
 
-The two draws alternate frame by frame in one run (each frame synchronised by reading a pixel
-back); ratios are what to read, absolute times are for this machine (llvmpipe on 2 cores).
+The draws alternate frame by frame in one run (each frame synchronised by reading a pixel back):
+diffuse and specular, then diffuse and specular with the view moving (each frame from another eye,
+which draws the full transfer's occlusion again; its ratio is to the diffuse frames of its own
+loop); ratios are what to read, absolute times are for this machine
+(llvmpipe on 2 cores).
 """
 
 import argparse
@@ -32,15 +35,20 @@ from prt_addon.blender.world import projection
 from prt_addon.core.specular import brdf
 
 
-def time_frames(scene, obj, mvp, frames, size):
+def time_frames(scene, obj, mvps, frames, size):
+    """Medians of (diffuse, specular, diffuse, specular with the view moving) frames: the first
+    two interleaved from the first view of `mvps`, then the last two, the moving one drawn
+    alternately from the two views, so that every frame sees another eye (the full transfer's
+    occlusion is drawn again, spec_occlusion; in a loop of its own, as the static frames would
+    otherwise draw it again after each moved one)."""
     off = gpu.types.GPUOffScreen(size, size, format="RGBA32F")
-    times = {False: [], True: []}
+    times = {"diffuse": [], "specular": [], "diffuse again": [], "moving": []}
     with off.bind():
         fb = gpu.state.active_framebuffer_get()
         gpu.state.depth_test_set("LESS_EQUAL")
         gpu.state.depth_mask_set(True)
 
-        def frame(specular):
+        def frame(specular, mvp):
             scene.prt_display.specular = specular
             fb.clear(color=(0, 0, 0, 0), depth=1.0)
             t0 = time.perf_counter()
@@ -48,13 +56,16 @@ def time_frames(scene, obj, mvp, frames, size):
             fb.read_color(size // 2, size // 2, 1, 1, 4, 0, "FLOAT")  # wait for the GPU
             return time.perf_counter() - t0
 
-        frame(False), frame(True)  # warm up (upload, compile, sky levels)
+        frame(False, mvps[0]), frame(True, mvps[0])  # warm up (upload, compile, sky levels)
         for _ in range(frames):
-            times[False].append(frame(False))
-            times[True].append(frame(True))
+            times["diffuse"].append(frame(False, mvps[0]))
+            times["specular"].append(frame(True, mvps[0]))
+        for i in range(frames):
+            times["diffuse again"].append(frame(False, mvps[0]))
+            times["moving"].append(frame(True, mvps[1 - i % 2]))
         gpu.state.depth_test_set("NONE")
     off.free()
-    return statistics.median(times[False]), statistics.median(times[True])
+    return [statistics.median(times[k]) for k in times]
 
 
 def main():
@@ -83,6 +94,8 @@ def main():
     bpy.context.view_layer.update()
     view, proj = offscreen.camera_matrices(scene, args.size, args.size)
     mvp = mathutils.Matrix((proj @ view).tolist())
+    orbit = mathutils.Matrix.Rotation(0.01, 4, "Z")  # the camera turned by 0.01 rad about the sphere
+    mvps = (mvp, mathutils.Matrix((proj @ view @ orbit).tolist()))
     obj.data.calc_loop_triangles()
     print(f"renderer: {gpu.platform.renderer_get()}")
     print(
@@ -94,15 +107,21 @@ def main():
     print(
         f"BRDF table {brdf.TABLE_SIZE}x{brdf.TABLE_SIZE} ({brdf.SAMPLES} samples each): {time.perf_counter() - start:.2f} s"
     )
-    print(f"{'order':>5} {'split lights':>12} {'diffuse ms':>10} {'specular ms':>11} {'ratio':>6}")
+    print(
+        f"{'order':>5} {'split lights':>12} {'diffuse ms':>10} {'specular ms':>11} {'ratio':>6} "
+        f"{'view moving ms':>14} {'ratio':>6}"
+    )
     for order in args.orders:
         write_transfer(obj, order)
         for split in (False, True):
             projection.project_and_store(scene, order, split_lights=split)
             gpu_cache.clear_caches()
-            diffuse, specular = time_frames(scene, obj, mvp, args.frames, args.size)
+            diffuse, specular, diffuse_again, moving = time_frames(scene, obj, mvps, args.frames, args.size)
             lights = len(projection.current_world_lights(scene))
-            print(f"{order:>5} {lights:>12} {diffuse * 1e3:>10.1f} {specular * 1e3:>11.1f} {specular / diffuse:>6.2f}")
+            print(
+                f"{order:>5} {lights:>12} {diffuse * 1e3:>10.1f} {specular * 1e3:>11.1f} {specular / diffuse:>6.2f} "
+                f"{moving * 1e3:>14.1f} {moving / diffuse_again:>6.2f}"
+            )
     sky = sky_texture.sky_texture(scene)
     print(
         f"prefiltered sky: {sky.levels} levels of {sky.width}x{sky.height} RGBA16F = {sky.nbytes / 2**20:.2f} MiB, "

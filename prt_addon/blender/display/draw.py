@@ -17,10 +17,10 @@ from ..scene.albedo_source import slot_sources
 from ..scene.lighting import bounce_light_extra, exposure_scale, light_in_local_frame, world_light, world_lights
 from ..scene.materials import display_settings
 from ..scene.principled import principled_specular
-from . import albedo_texture, colour, light_markers, material_maps, sky_texture, texel_relight
+from . import albedo_texture, colour, light_markers, material_maps, sky_texture, spec_occlusion, texel_relight
 from .gpu_cache import ObjectState, _object_cache, _prune, clear_caches, get_mesh_entry
-from .shader import get_shader, light_ubo_bytes
-from .shader_specular import bind_slot, bind_textures, eye_point
+from .shader import get_shader, light_ubo_bytes, shader_mode, transfer_vec4s
+from .shader_specular import bind_textures, eye_point, slot_ubo
 from .shader_suns import MAX_SUNS, suns_ubo_bytes, view_layout
 from .shadows import update_shadow_maps
 
@@ -84,11 +84,15 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
         entry = get_mesh_entry(obj.data, info, albedo_mode, albedo_attr, obj, depsgraph, sources, map_uvs)
         if not entry.batches:
             continue
-        shader = get_shader(
-            info.count, layout, info.channels, info.domain, specular, entry.textured, info.back, bool(spec_maps)
-        )
         state = _object_cache.setdefault(obj.as_pointer(), ObjectState())
         mw = np.array(obj.matrix_world, dtype=np.float64)
+        # Before the frame's shader is bound: the occlusion passes bind their own.
+        slots, inline = (
+            _specular_slots(state, entry, info, mw, spec_frame, slot_specular, spec_maps) if specular else ({}, False)
+        )
+        shader = get_shader(
+            info.count, layout, info.channels, info.domain, specular, entry.textured, info.back, bool(spec_maps), inline
+        )
         size_key = (info.count, info.channels)
         light_key = (light_tag, mw[:3, :3].tobytes(), info.order, size_key, lights_tag if info.channels else None)
         if state.ubo is None or state.light_key != light_key:
@@ -126,11 +130,12 @@ def draw_objects(scene, view_projection, objects, *, scale=1.0, depth_bias=0.0, 
                 shader.uniform_sampler("albedo_tx", textures[slot])
                 shader.uniform_int("albedo_mode", sources[slot].sampling if sources else (0, 0))
             if specular:
-                slot = min(mat_index, len(slot_specular) - 1)
-                params, extra = slot_specular[slot], b""
-                if spec_maps:
-                    params, extra = _slot_maps(shader, spec_maps[min(slot, len(spec_maps) - 1)], params)
-                bind_slot(shader, state, slot, mw, spec_frame, params, extra)
+                ubo, textures, occ = slots[min(mat_index, len(slot_specular) - 1)]
+                shader.uniform_block("spec", ubo)
+                if textures is not None:
+                    material_maps.bind(shader, textures)
+                if occ is not None:
+                    shader.uniform_sampler("occ_tx", occ)
             batch.draw(shader)
         drawn += 1
     return drawn
@@ -152,11 +157,41 @@ def _slot_albedo(obj, sources, textured):
     return tints, textures
 
 
-def _slot_maps(shader, maps, params):
-    """Bind a slot's Principled maps (material_maps); -> (params, extra PRTSpec bytes)."""
-    data = material_maps.slot_data(maps, params if params is not None else (0.5, 0.0, 0.04))
-    material_maps.bind(shader, data[2])
-    return (data[0] if params is not None else None), data[1]
+def _specular_slots(state, entry, info, mw, spec_frame, slot_specular, spec_maps):
+    """({material slot drawn: (its PRTSpec block, its map textures or None, its full-transfer
+    occlusion texture or None)}, whether the frame sums that occlusion itself). While the view
+    (or the object, or a lobe) changes from one draw to the next, the frame sums it in its vertex
+    shader as it always did; at the first draw that sees the same view again spec_occlusion draws
+    it into the slot's texture, which the frame then reads (a white texel for a slot drawn
+    diffuse only; None for a texel bake or an inline draw)."""
+    total = transfer_vec4s(info.count, info.channels, info.back)
+    mode = shader_mode(total, info.domain, entry.textured)
+    if state.spec_seen is None:
+        state.spec_seen = {}
+    out, keys = {}, {}
+    for mat_index, _batch in entry.batches:
+        slot = min(mat_index, len(slot_specular) - 1)
+        if slot in out:
+            continue
+        params, extra, textures = slot_specular[slot], b"", None
+        if spec_maps:
+            maps = spec_maps[min(slot, len(spec_maps) - 1)]
+            data = material_maps.slot_data(maps, params if params is not None else (0.5, 0.0, 0.04))
+            params, extra, textures = (data[0] if params is not None else None), data[1], data[2]
+        out[slot] = (slot_ubo(state, slot, mw, spec_frame, params, extra), textures, None)
+        if mode != "TEXEL" and params is not None:
+            keys[slot] = (entry, spec_occlusion.view_key(spec_frame, mw, params, extra))
+    inline = any(state.spec_seen.get(slot) != key for slot, key in keys.items())
+    state.spec_seen = keys
+    if mode == "TEXEL" or inline:
+        return out, inline
+    layout = (mode, info.count, total, bool(spec_maps))
+    for slot, (ubo, textures, _none) in out.items():
+        occ = albedo_texture.white()  # (a diffuse-only slot reads none)
+        if slot in keys:
+            occ = spec_occlusion.update(state, slot, entry, ubo, keys[slot][1], layout)
+        out[slot] = (ubo, textures, occ)
+    return out, False
 
 
 def _relit(state, entry, count, channels):

@@ -26,10 +26,23 @@ class MeshEntry:
         self.texel_grid = texel_grid  # (texels per side, tiles per row) of a texel bake, else None
         self.evaluated = evaluated  # the evaluated positions it was built for (deformed objects)
         self.back_texture = None  # (tiles texture, tiles per row) of a texel bake's back side, else None
+        self.points = None  # the vertex buffer as points, one a vertex (spec_occlusion's pass)
+        self.vertices = 0
 
 
 class ObjectState:
-    __slots__ = ("ubo", "light_key", "suns_ubo", "suns_bytes", "relit", "relit_key", "spec_ubo", "spec_bytes")
+    __slots__ = (
+        "ubo",
+        "light_key",
+        "suns_ubo",
+        "suns_bytes",
+        "relit",
+        "relit_key",
+        "spec_ubo",
+        "spec_bytes",
+        "spec_occ",
+        "spec_seen",
+    )
 
     def __init__(self):
         self.relit = None  # texel_relight.Relit of a texel bake
@@ -40,6 +53,8 @@ class ObjectState:
         self.suns_bytes = None
         self.spec_ubo = None
         self.spec_bytes = None
+        self.spec_occ = None  # material slot -> spec_occlusion.Occlusion
+        self.spec_seen = None  # material slot -> what its occlusion depended on at the last draw
 
 
 _mesh_cache = {}  # (mesh pointer, object pointer or 0 when undeformed) -> MeshEntry
@@ -239,6 +254,7 @@ def build_mesh_entry(
             batches.append((int(sorted_mat[s]), gpu.types.GPUBatch(type="TRIS", buf=vbo, elem=ibo)))
     entry = MeshEntry(key, batches, texture, per_row, evaluated, grid, uvs is not None)
     entry.back_texture = None if back is None else (back[0], back[1][1])
+    entry.points, entry.vertices = gpu.types.GPUBatch(type="POINTS", buf=vbo), n
     return entry
 
 

@@ -5,8 +5,8 @@ with the textured shader's UV (albedo_texture) and a variant of the specular sha
 (shader.get_shader(spec_maps=True)): per pixel, each mapped input is its image's channel looked
 up as the node samples it (albedo_texture.sampler_glsl), the others the slot's constants; the
 dielectric F0 is ((IOR - 1) / (IOR + 1))^2 x 2 x level, IOR and level each the pixel's or the
-constant. The full transfer's occlusion (per
-vertex, shader_specular.occlusion_lines) is computed for two lobes, at the smallest and the
+constant. The full transfer's occlusion (per vertex, shader_specular.occlusion_lines in
+spec_occlusion's pass; per pixel for a texel bake) is computed for two lobes, at the smallest and the
 largest roughness of the slot's image, and mixed per pixel linearly in roughness between them
 (exact for an image of two values). Without a map the shader and its output are as before.
 """
@@ -76,8 +76,9 @@ def ubo_source():
     return base[: -len(" };\n")] + " vec4 bands2[8]; vec4 maps[5]; };\n"
 
 
-def _vertex(vertex):
-    """The vertex shader with spec_occ2: the full transfer's occlusion for the lobe of bands2."""
+def second_lobe(vertex):
+    """The vertex shader with spec_occ2: the full transfer's occlusion for the lobe of bands2 (its
+    sums in spec_occlusion's pass; the second channel of the pass's texel in the frame)."""
     out = []
     for line in vertex.split("\n"):
         out.append(line)
@@ -85,6 +86,8 @@ def _vertex(vertex):
             out.append(line.replace("seen +=", "seen2 +=").replace("open_ =", "open2 =").replace("bands[", "bands2["))
         elif line == "  float seen = 0.0;":
             out.append("  float seen2 = 0.0;")
+        elif line.startswith("  spec_occ = ") and "occ_tx" in line:
+            out.append(line.replace("spec_occ =", "spec_occ2 =").replace(".r;", ".g;"))
         elif line.startswith("  spec_occ = "):
             out.append("  spec_occ2 = open2 > 1e-8 ? seen2 / open2 : 1.0;" if "seen" in line else "  spec_occ2 = 1.0;")
     assert sum(x.startswith("  spec_occ2 = ") for x in out) == 1
@@ -100,7 +103,8 @@ def add_maps(info, vertex, fragment, texel=False):
     if texel:
         head, tail = fragment.split(texel_occlusion.FULL_FUNCTION, 1)
         body, rest = tail.split("\n}\n", 1)
-        fragment = "float spec_occ2 = 1.0;\n" + head + texel_occlusion.FULL_FUNCTION + _vertex(body) + "\n}\n" + rest
+        full = texel_occlusion.FULL_FUNCTION + second_lobe(body)
+        fragment = "float spec_occ2 = 1.0;\n" + head + full + "\n}\n" + rest
     else:
         iface = gpu.types.GPUStageInterfaceInfo("prt_maps_iface")
         iface.smooth("FLOAT", "spec_occ2")
@@ -112,7 +116,7 @@ def add_maps(info, vertex, fragment, texel=False):
     for axis, name in zip("xyz", ("spec_roughness", "spec_metallic", "spec_f0d")):
         fragment = fragment.replace(f"spec.material.{axis}", name)
     fragment = fragment.replace(albedo_texture.GLSL, albedo_texture.GLSL + GLSL, 1)
-    return (vertex if texel else _vertex(vertex)), fragment
+    return (vertex if texel else second_lobe(vertex)), fragment
 
 
 _textures = {}  # (image pointer, channel, factor, input) -> (key, GPUTexture or None, note, (lo, hi))

@@ -177,7 +177,15 @@ def _back_side(info, vertex, fragment, first, count, mode):
 
 
 def get_shader(
-    count, lights=None, bounce_channels=0, domain="POINT", specular=False, textured=False, back=False, spec_maps=False
+    count,
+    lights=None,
+    bounce_channels=0,
+    domain="POINT",
+    specular=False,
+    textured=False,
+    back=False,
+    spec_maps=False,
+    spec_inline=False,
 ):
     """Compiled shader for `count` transfer vec4s per part, with the suns' shadow views when `lights`
     is a (compact views, wide views) pair (shader_suns.view_layout; None or (0, 0): no suns) and a bounced transfer
@@ -185,14 +193,16 @@ def get_shader(
     (shader_specular), with an albedo image per pixel when `textured` (albedo_texture), with the back
     side's transfer drawn on back faces when `back` (a texel bake: its relit texture's back half),
     with the Principled inputs' images per pixel when `spec_maps` (material_maps; specular and
-    textured only) (cached).
+    textured only), with the specular's full-transfer occlusion summed in the vertex shader when
+    `spec_inline`, else read from spec_occlusion's texture (cached).
     Raises RuntimeError on failure."""
     back = bool(back)
     total = transfer_vec4s(count, bounce_channels, back and domain != "TEXEL")
     mode = shader_mode(total, domain, textured)
     lights = tuple(lights) if lights and any(lights) else None
     spec_maps = bool(spec_maps and specular and textured)
-    key = (mode, count, lights, bounce_channels, bool(specular), bool(textured), back, spec_maps)
+    spec_inline = bool(spec_inline and specular and mode != "TEXEL")
+    key = (mode, count, lights, bounce_channels, bool(specular), bool(textured), back, spec_maps, spec_inline)
     shader = _shaders.get(key)
     if shader is not None:
         return shader
@@ -275,7 +285,9 @@ def get_shader(
     if textured:
         fragment = _albedo_diffuse(fragment)
     if specular:
-        vertex, fragment = shader_specular.add_specular(info, vertex, fragment, mode, first, bool(lights), count)
+        vertex, fragment = shader_specular.add_specular(
+            info, vertex, fragment, mode, first, bool(lights), count, spec_inline
+        )
         if mode == "TEXEL":
             fragment = texel_occlusion.GLOBALS + texel_occlusion.add_occlusion(info, fragment, count, back)
     if textured:  # read first (the specular's set-up takes it as the base colour of metals and Fresnel)

@@ -28,6 +28,7 @@ from ...core.specular import occlusion
 
 SKY_SLOT = 3
 BRDF_SLOT = 4
+OCC_SLOT = 12  # the full transfer's occlusion per vertex (spec_occlusion; 9 colour table, 10 IOR map, 11 texel tiles)
 Y0 = 0.28209479177387814
 ROUGH_FROM, ROUGH_SPAN = 0.3, 0.3  # cones below roughness 0.3, the full transfer above 0.6
 MAX_BAND_ORDER = 32
@@ -254,30 +255,47 @@ def occlusion_lines(mode, count):
     return "\n".join(lines) + "\n"
 
 
-def add_specular(info, vertex, fragment, mode, nrm_index, has_suns, count=1):
+# The frame's vertex shader: its vertex's texel of the occlusion drawn by spec_occlusion's pass.
+# (2^OCC_WIDTH_BITS texels a row: shifts, where an integer division is lane by lane on llvmpipe)
+OCC_WIDTH_BITS = 12
+OCCLUSION_READ = (
+    f"  spec_occ = texelFetch(occ_tx, ivec2(gl_VertexID & {(1 << OCC_WIDTH_BITS) - 1}, "
+    f"gl_VertexID >> {OCC_WIDTH_BITS}), 0).r;\n"
+)
+
+# With split lights the sun shader's own varyings hold the same position, normal and albedo.
+_SUN_VARYINGS = "#define spec_pos local_pos\n#define spec_nrm local_nrm\n#define spec_albedo surface_albedo\n"
+
+
+def add_specular(info, vertex, fragment, mode, nrm_index, has_suns, count=1, inline=False):
     """Declare the specular inputs on `info`; -> (vertex, fragment) sources. nrm_index: the
-    attribute slot of prt_nrm (declared here unless the suns declared it)."""
+    attribute slot of prt_nrm (declared here unless the suns declared it). A vertex or corner
+    bake reads its full-transfer occlusion from occ_tx (spec_occlusion), or with `inline` sums it
+    in the vertex shader (while the view moves)."""
     info.uniform_buf(2, "PRTSpec", "spec")
     info.sampler(SKY_SLOT, "FLOAT_3D", "sky_tx")
     info.sampler(BRDF_SLOT, "FLOAT_2D", "brdf_tx")
+    inline = inline or mode == "TEXEL"
+    if not inline:
+        info.sampler(OCC_SLOT, "FLOAT_2D", "occ_tx")
     if not has_suns:
         info.vertex_in(nrm_index, "VEC3", "prt_nrm")
     iface = gpu.types.GPUStageInterfaceInfo("prt_spec_iface")
-    iface.smooth("VEC3", "spec_pos")
-    iface.smooth("VEC3", "spec_nrm")
-    iface.smooth("VEC3", "spec_albedo")
+    own = "" if has_suns else "  spec_pos = prt_pos;\n  spec_nrm = prt_nrm;\n"
+    if not has_suns:
+        iface.smooth("VEC3", "spec_pos")
+        iface.smooth("VEC3", "spec_nrm")
+        iface.smooth("VEC3", "spec_albedo")
+        own += "  spec_albedo = prt_albedo.rgb * tint.rgb * scale;\n"
     occluded = ""
     if mode != "TEXEL":  # (a texel bake reads them per pixel: texel_occlusion)
         iface.smooth("VEC4", "spec_vis")
         iface.smooth("FLOAT", "spec_occ")
-        occluded = f"  spec_vis = {transfer_vec4(mode)};\n{occlusion_lines(mode, count)}"
-    info.vertex_out(iface)
-    vertex = vertex.replace(
-        "  gl_Position = mvp",
-        "  spec_pos = prt_pos;\n  spec_nrm = prt_nrm;\n  spec_albedo = prt_albedo.rgb * tint.rgb * scale;\n"
-        f"{occluded}  gl_Position = mvp",
-        1,
-    )
+        occ = occlusion_lines(mode, count) if inline else OCCLUSION_READ
+        occluded = f"  spec_vis = {transfer_vec4(mode)};\n{occ}"
+    if not (has_suns and mode == "TEXEL"):  # (else it has no member: an empty block does not compile)
+        info.vertex_out(iface)
+    vertex = vertex.replace("  gl_Position = mvp", f"{own}{occluded}  gl_Position = mvp", 1)
     main = "void main()\n{\n"
     assert main in fragment and "FragColor = vec4(display_transform(" in fragment
     fragment = fragment.replace(
@@ -286,7 +304,7 @@ def add_specular(info, vertex, fragment, mode, nrm_index, has_suns, count=1):
     head, tail = fragment.split("FragColor = vec4(display_transform(", 1)
     expr, rest = tail.rsplit("), 1.0);", 1)
     fragment = head + f"FragColor = vec4(display_transform(spec_shade({expr}, sun_spec)), 1.0);" + rest
-    return vertex, _FUNCTIONS + (_SUN_FUNCTION if has_suns else "") + fragment
+    return vertex, (_SUN_VARYINGS if has_suns else "") + _FUNCTIONS + (_SUN_FUNCTION if has_suns else "") + fragment
 
 
 def spec_ubo_bytes(matrix_world, frame, eye, sky_rows, sky, material):
@@ -331,8 +349,8 @@ def bind_textures(shader, spec_frame):
     shader.uniform_sampler("brdf_tx", table)
 
 
-def bind_slot(shader, state, slot, matrix_world, spec_frame, params, extra=b""):
-    """Bind material slot `slot`'s PRTSpec block (one uniform buffer per object and slot, updated
+def slot_ubo(state, slot, matrix_world, spec_frame, params, extra=b""):
+    """Material slot `slot`'s PRTSpec block (one uniform buffer per object and slot, updated
     when it changed); params: principled_specular's triple or None (diffuse only); extra: bytes
     of the members after the block's own (material_maps)."""
     eye, rows, sky, _table = spec_frame
@@ -349,4 +367,4 @@ def bind_slot(shader, state, slot, matrix_world, spec_frame, params, extra=b""):
     elif state.spec_bytes.get(slot) != data:
         ubo.update(data)
     state.spec_bytes[slot] = data
-    shader.uniform_block("spec", ubo)
+    return ubo
