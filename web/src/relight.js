@@ -31,11 +31,24 @@ vec3 prtTexelRadiance() {
   return mix(mix(r00, r10, f.x), mix(r01, r11, f.x), f.y);
 }`;
 
-const VERTEX = `
+/** The vertex shader of a full-screen pass: screenPass's triangle, as it is in clip space. */
+export const SCREEN_VERTEX = `
 void main() {
   gl_Position = vec4(position.xy, 0.0, 1.0);
 }
 `;
+
+/** A full-screen triangle drawing `material` into a target: {mesh, scene, camera} for renderInto
+ * (its geometry is the pass's own: dispose mesh.geometry with it). */
+export function screenPass(material) {
+  const quad = new THREE.BufferGeometry();
+  quad.setAttribute('position', new THREE.Float32BufferAttribute([-1, -1, 0, 3, -1, 0, -1, 3, 0], 3));
+  const mesh = new THREE.Mesh(quad, material);
+  mesh.frustumCulled = false;
+  const scene = new THREE.Scene();
+  scene.add(mesh);
+  return { mesh, scene, camera: new THREE.Camera() };
+}
 
 // The sum of prt_material.js's transferSum, `fetch(k)` a source's (with p the target's texel).
 function sum(count, channels, source) {
@@ -104,18 +117,12 @@ export class Relight {
     }
     this.material = new THREE.ShaderMaterial({
       uniforms,
-      vertexShader: VERTEX,
+      vertexShader: SCREEN_VERTEX,
       fragmentShader: FRAGMENT(source.count, channels, source),
       depthTest: false,
       depthWrite: false,
     });
-    const quad = new THREE.BufferGeometry();
-    quad.setAttribute('position', new THREE.Float32BufferAttribute([-1, -1, 0, 3, -1, 0, -1, 3, 0], 3));
-    this.mesh = new THREE.Mesh(quad, this.material);
-    this.mesh.frustumCulled = false;
-    this.scene = new THREE.Scene();
-    this.scene.add(this.mesh);
-    this.camera = new THREE.Camera();
+    Object.assign(this, screenPass(this.material));
     this.texture = this.target.texture;
     this.dirty = true;
   }

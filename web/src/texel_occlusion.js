@@ -8,15 +8,9 @@
 // float target of the planes' tile layout (tile k at column k % tiles_x, row k / tiles_x); the
 // frame reads four texels a tile.
 import * as THREE from 'three';
-import { renderInto } from './relight.js';
+import { SCREEN_VERTEX, renderInto, screenPass } from './relight.js';
 import { occlusionLines } from './occlusion.js';
 import { BAND_COUNT } from './specular.js';
-
-const VERTEX = `
-void main() {
-  gl_Position = vec4(position.xy, 0.0, 1.0);
-}
-`;
 
 const DECODE = (source) => `
 ${source.relightGlsl}
@@ -43,18 +37,12 @@ export class TexelTiles {
     });
     this.material = new THREE.ShaderMaterial({
       uniforms: source.uniforms,
-      vertexShader: VERTEX,
+      vertexShader: SCREEN_VERTEX,
       fragmentShader: DECODE(source),
       depthTest: false,
       depthWrite: false,
     });
-    const quad = new THREE.BufferGeometry();
-    quad.setAttribute('position', new THREE.Float32BufferAttribute([-1, -1, 0, 3, -1, 0, -1, 3, 0], 3));
-    this.mesh = new THREE.Mesh(quad, this.material);
-    this.mesh.frustumCulled = false;
-    this.scene = new THREE.Scene();
-    this.scene.add(this.mesh);
-    this.camera = new THREE.Camera();
+    Object.assign(this, screenPass(this.material));
     this.texture = this.target.texture;
     this.drawn = false;
   }
