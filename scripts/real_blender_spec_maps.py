@@ -1,23 +1,19 @@
 """Ad-hoc real-window look: a sphere whose Roughness and Metallic come from a metallic-roughness image, PRT overlay then Cycles.
 
 blender --factory-startup --enable-event-simulate --python real_blender_spec_maps.py -- ZIP OUT_DIR (under Xvfb, as
-real_blender_check.sh runs Blender): installs the zip, bakes the sphere under forest.exr, shows
+real_blender_check.sh runs Blender, with real_blender_adhoc.py beside it): installs the zip, bakes the sphere under forest.exr, shows
 the overlay in the 3D View's camera view (Solid shading), saves the X screen, then renders the same
 camera with Cycles (direct light only) into OUT_DIR.
 """
 
-import importlib
-import json
 import os
-import subprocess
 import sys
 
 import bpy
 import numpy as np
 
-ZIP, OUT = sys.argv[sys.argv.index("--") + 1 :][:2]
-MODULE = "bl_ext.user_default.prt_lighting"
-state = {"step": 0}
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import real_blender_adhoc as adhoc
 
 
 def orm_image():
@@ -64,65 +60,11 @@ def scene_setup():
     scene.camera = cam
     scene.render.resolution_x, scene.render.resolution_y = 400, 400
     scene.view_settings.view_transform = "Standard"
-    api = importlib.import_module(f"{MODULE}.prt_addon.api")
+    api = adhoc.api()
     api.project_world(order=8)
     api.bake([sphere], order=8, samples=128)
     scene.prt_display.specular = True
-    scene.prt.show_display = True
-    window = bpy.context.window_manager.windows[0]
-    area = max((a for a in window.screen.areas if a.type == "VIEW_3D"), key=lambda a: a.width * a.height)
-    space = area.spaces.active
-    space.shading.type = "SOLID"
-    space.region_3d.view_perspective = "CAMERA"
-    space.overlay.show_overlays = False
-    with bpy.context.temp_override(window=window, area=area, region=[r for r in area.regions if r.type == "WINDOW"][0]):
-        bpy.ops.view3d.view_center_camera()
-    area.tag_redraw()
+    adhoc.camera_view()
 
 
-def tick():
-    step = state["step"]
-    state["step"] += 1
-    try:
-        if step == 0:
-            window = bpy.context.window_manager.windows[0]
-            window.event_simulate(type="ESC", value="PRESS")  # closes the splash screen
-            window.event_simulate(type="ESC", value="RELEASE")
-            bpy.ops.extensions.package_install_files(filepath=ZIP, repo="user_default", enable_on_install=True)
-        elif step == 1:
-            scene_setup()
-        elif step == 4:
-            window = bpy.context.window_manager.windows[0]
-            area = max((a for a in window.screen.areas if a.type == "VIEW_3D"), key=lambda a: a.width * a.height)
-            region = [r for r in area.regions if r.type == "WINDOW"][0]
-            box = [region.x, region.y, region.width, region.height, window.height]
-            open(os.path.join(OUT, "region.json"), "w").write(json.dumps(box))
-            subprocess.run(
-                [
-                    "import",
-                    "-display",
-                    os.environ.get("DISPLAY", ":99"),
-                    "-window",
-                    "root",
-                    os.path.join(OUT, "screen.png"),
-                ],
-                check=True,
-            )
-        elif step == 5:
-            scene = bpy.context.scene
-            scene.render.engine = "CYCLES"
-            scene.cycles.samples = 128
-            scene.cycles.max_bounces = 0
-            scene.cycles.use_denoising = False
-            scene.render.filepath = os.path.join(OUT, "cycles.png")
-            bpy.ops.render.render(write_still=True)
-            bpy.ops.wm.quit_blender()
-            return None
-    except Exception as e:
-        open(os.path.join(OUT, "error.txt"), "w").write(repr(e))
-        bpy.ops.wm.quit_blender()
-        return None
-    return 2.0
-
-
-bpy.app.timers.register(tick, first_interval=1.0)
+adhoc.run(scene_setup)
