@@ -23,6 +23,17 @@ def api():
     return importlib.import_module(f"{MODULE}.prt_addon.api")
 
 
+def hdri_world(name):
+    """A new world lit by one of Blender's bundled studio-light HDRIs (forest, city, ...)."""
+    world = bpy.data.worlds.new(name)
+    world.use_nodes = True
+    env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+    folder = bpy.utils.system_resource("DATAFILES", path="studiolights/world")
+    env.image = bpy.data.images.load(os.path.join(folder, f"{name}.exr"))
+    world.node_tree.links.new(env.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
+    return world
+
+
 def view_3d():
     """(window, the largest 3D View area, its WINDOW region)."""
     window = bpy.context.window_manager.windows[0]

@@ -44,13 +44,7 @@ def scene_setup():
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)
     scene = bpy.context.scene
-    world = bpy.data.worlds.new("forest")
-    world.use_nodes = True
-    env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
-    folder = bpy.utils.system_resource("DATAFILES", path="studiolights/world")
-    env.image = bpy.data.images.load(os.path.join(folder, "forest.exr"))
-    world.node_tree.links.new(env.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
-    scene.world = world
+    scene.world = adhoc.hdri_world("forest")
     spheres = []
     for x, mat in (
         (-1.1, material("ior_map", halves("iors", 1.2, 2.0))),

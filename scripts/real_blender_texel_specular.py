@@ -32,13 +32,7 @@ def scene_setup():
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)
     scene = bpy.context.scene
-    world = bpy.data.worlds.new("city")
-    world.use_nodes = True
-    env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
-    folder = bpy.utils.system_resource("DATAFILES", path="studiolights/world")
-    env.image = bpy.data.images.load(os.path.join(folder, "city.exr"))
-    world.node_tree.links.new(env.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
-    scene.world = world
+    scene.world = adhoc.hdri_world("city")
     bpy.ops.mesh.primitive_plane_add(size=4.0)
     floor = bpy.context.active_object
     floor.data.materials.append(principled("floor", (0.8, 0.8, 0.8), 0.2, 1.0))
